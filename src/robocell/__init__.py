@@ -1,0 +1,59 @@
+"""robocell: plan, simulate and run pick-and-place with industrial robot arms from Python.
+
+The public API, by layer (ARCHITECTURE.md): geometry → robot → kinematics → scene.
+"""
+
+from robocell.errors import (
+    ExecutionError,
+    GeometryError,
+    GraspError,
+    IKError,
+    ModelError,
+    PlanningError,
+    RobocellError,
+    SceneError,
+)
+from robocell.geometry import Box, Cylinder, Mesh, Pose, Sphere
+from robocell.kinematics import IKResult, fk, fk_batch, jacobian, solve_ik
+from robocell.robot import JointGroup, RobotModel, RobotState, bundled_robots
+from robocell.scene import (
+    CollisionChecker,
+    CollisionObject,
+    PlanningScene,
+    load_request,
+    load_scene,
+    save_scene,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Box",
+    "CollisionChecker",
+    "CollisionObject",
+    "Cylinder",
+    "ExecutionError",
+    "GeometryError",
+    "GraspError",
+    "IKError",
+    "IKResult",
+    "JointGroup",
+    "Mesh",
+    "ModelError",
+    "PlanningError",
+    "PlanningScene",
+    "Pose",
+    "RobocellError",
+    "RobotModel",
+    "RobotState",
+    "SceneError",
+    "Sphere",
+    "bundled_robots",
+    "fk",
+    "fk_batch",
+    "jacobian",
+    "load_request",
+    "load_scene",
+    "save_scene",
+    "solve_ik",
+]

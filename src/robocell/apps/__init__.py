@@ -1,0 +1,1 @@
+"""Command line, 3D view, commander shell, setup assistant, benchmarks."""

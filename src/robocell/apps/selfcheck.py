@@ -1,0 +1,80 @@
+"""``robocell info``: the bundled robots and cells, and a short self-check of each robot."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from robocell.geometry.pose import Pose
+from robocell.kinematics import fk, ik_solver, pose_error, solve_ik
+from robocell.robot.model import ASSETS, RobotModel, bundled_robots
+from robocell.scene.planning_scene import PlanningScene
+
+
+@dataclass
+class CheckResult:
+    robot: str
+    groups: str
+    load_s: float
+    ik_solver: str
+    ik_ok: int
+    ik_total: int
+    collision_ok: bool
+    detail: str
+
+    @property
+    def passed(self) -> bool:
+        return self.ik_ok == self.ik_total and self.collision_ok
+
+
+def bundled_cells() -> list[str]:
+    folder = ASSETS.parent / "cells"
+    return sorted(p.stem for p in folder.glob("*.yaml")) if folder.is_dir() else []
+
+
+def check_robot(name: str, n_poses: int = 20, seed: int = 0) -> CheckResult:
+    """Load a bundled robot; IK round trips on random reachable poses; one collision query
+    that must be free (home) and one that must collide (a box placed at the tool)."""
+    t = time.perf_counter()
+    robot = RobotModel.load(name)
+    load_s = time.perf_counter() - t
+    arm_name = next(g for g in robot.groups if robot.groups[g].dof == 6)
+    arm = robot.group(arm_name)
+    rng = np.random.default_rng(seed)
+    ok = 0
+    for _ in range(n_poses):
+        q = arm.random(rng)
+        T = fk(arm, q, relative_to=arm.base_link)
+        res = solve_ik(arm, T, seed=q)
+        if res.success and all(
+            max(pose_error(fk(arm, s, relative_to=arm.base_link), T)) < 1e-6 for s in res.solutions
+        ):
+            ok += 1
+    scene = PlanningScene(robot)
+    home = next(iter(arm.named_states.values()), arm.default_positions)
+    free = not scene.in_collision(home, arm)
+    T_tool = fk(arm, home)
+    scene.add_box("probe", Pose.from_matrix(T_tool), (0.05, 0.05, 0.05))
+    hit = scene.in_collision(home, arm)
+    pairs = scene.colliding_pairs(home, arm)
+    detail = f"home free: {free}; box at {arm.tip_link} collides: {hit} ({len(pairs)} pairs)"
+    return CheckResult(name, ", ".join(f"{g}({robot.groups[g].dof})" for g in robot.groups),
+                       load_s, ik_solver(arm).name, ok, n_poses, free and hit, detail)  # fmt: skip
+
+
+def run_info() -> int:
+    print("robocell: plan, simulate and run pick-and-place with industrial arms\n")
+    results = []
+    for name in bundled_robots():
+        results.append(check_robot(name))
+    print(f"{'robot':<20} {'groups (dof)':<40} {'load s':>7} {'IK':>6} {'IK round trips':>15}  collision")
+    for r in results:
+        print(f"{r.robot:<20} {r.groups:<40} {r.load_s:>7.2f} {r.ik_solver:>6} "
+              f"{r.ik_ok:>7}/{r.ik_total:<7}  {'ok' if r.collision_ok else 'FAIL'}: {r.detail}")  # fmt: skip
+    cells = bundled_cells()
+    print(f"\ncells: {', '.join(cells) if cells else 'none bundled in this version'}")
+    passed = all(r.passed for r in results)
+    print(f"\nself-check: {'PASS' if passed else 'FAIL'} ({sum(r.passed for r in results)}/{len(results)} robots)")
+    return 0 if passed else 1

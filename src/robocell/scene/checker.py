@@ -1,0 +1,416 @@
+"""The batched collision checker of one planning group in one planning-scene snapshot.
+
+Two levels (ARCHITECTURE.md): a compiled sphere test classifies each state as certainly free,
+certainly colliding or unsure; only unsure states go to the exact check (coal, through
+pinocchio's geometry model, batched over states in C++). Pairs whose relative pose the group's
+joints cannot change are checked once, when the checker is built.
+
+Semantics: robot links and held objects are solids; ``check`` returns True for a state in
+collision (robot against world, held objects against world and robot, robot against itself),
+skipping pairs the allowed-collision matrix allows.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robocell.errors import SceneError
+from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere
+from robocell.kinematics.fk import link_poses, tree_args
+from robocell.robot.model import JointGroup, RobotModel
+from robocell.scene import _kernels as K
+from robocell.scene.objects import AttachedObject
+from robocell.scene.spheres import SphereTree, body_tree
+
+if TYPE_CHECKING:
+    from robocell.scene.planning_scene import PlanningScene
+
+
+@lru_cache(maxsize=16)
+def robot_spheres(robot: RobotModel) -> dict[str, SphereTree]:
+    """The sphere tree of every link with collision geometry, in the link's frame."""
+    by_link: dict[str, list[tuple[Shape, NDArray[np.float64]]]] = {}
+    for g in robot.collision_geometry:
+        by_link.setdefault(g.link, []).append((g.shape, g.T_link_shape))
+    return {link: body_tree(shapes) for link, shapes in by_link.items()}
+
+
+@dataclass
+class Body:
+    """A rigid body that collides: a robot link or a held object, on link ``link``."""
+
+    name: str
+    link: str
+    T_link_body: NDArray[np.float64]
+    spheres: SphereTree
+    moving: bool
+
+
+@dataclass
+class Obstacle:
+    """One primitive of a world object, as the kernel sees it (mesh shapes as their box)."""
+
+    object_id: str
+    kind: int
+    T_scene_shape: NDArray[np.float64]  # in the robot's root frame
+    dims: NDArray[np.float64]
+    exact_inner: bool  # inner-sphere hits are certain (solid primitive)
+
+
+def obstacle_of(object_id: str, shape: Shape, T: NDArray[np.float64]) -> Obstacle:
+    if isinstance(shape, Box):
+        return Obstacle(object_id, K.OBS_BOX, T, 0.5 * np.array(shape.size), True)
+    if isinstance(shape, Cylinder):
+        return Obstacle(object_id, K.OBS_CYLINDER, T, np.array([shape.radius, 0.5 * shape.length, 0]), True)
+    if isinstance(shape, Sphere):
+        return Obstacle(object_id, K.OBS_SPHERE, T, np.array([shape.radius, 0, 0]), True)
+    # a mesh: its bounding box in its own frame, for the sphere level only
+    V = np.asarray(shape.vertices)
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    Tb = T.copy()
+    Tb[:3, 3] = T[:3, :3] @ (0.5 * (lo + hi)) + T[:3, 3]
+    return Obstacle(object_id, K.OBS_BOX, Tb, np.maximum(0.5 * (hi - lo), 1e-9), False)
+
+
+def coal_geometry(shape: Shape) -> object:
+    """The coal collision geometry of a shape."""
+    import coal
+
+    if isinstance(shape, Box):
+        return coal.Box(*shape.size)
+    if isinstance(shape, Cylinder):
+        return coal.Cylinder(shape.radius, shape.length)
+    if isinstance(shape, Sphere):
+        return coal.Sphere(shape.radius)
+    if isinstance(shape, Mesh):
+        bvh = coal.BVHModelOBBRSS()
+        bvh.beginModel(len(shape.triangles), len(shape.vertices))
+        bvh.addSubModel(np.asarray(shape.vertices, dtype=float), np.asarray(shape.triangles, dtype=np.int64))
+        bvh.endModel()
+        return bvh
+    raise SceneError(f"cannot build collision geometry for {shape!r}")
+
+
+class CollisionChecker:
+    """Batched collision checks for ``group`` in a snapshot of ``scene`` (joints outside the
+    group at the scene's current state). Build it with :meth:`PlanningScene.checker`.
+
+    - ``check(qs)``: (N, dof) → (N,) bool, True = in collision;
+    - ``check_motion(q_a, q_b, resolution)``: True if any state on the straight joint-space
+      segment (sampled so that no joint moves more than ``resolution`` [rad or m]) collides.
+    """
+
+    def __init__(self, scene: PlanningScene, group: JointGroup, exact_threads: int = 2) -> None:
+        robot = scene.robot
+        self.robot = robot
+        self.group = group
+        self.exact_threads = exact_threads
+        self.base_positions = scene.state.positions.copy()
+        acm = scene.acm
+        moved = set(group.link_names)
+
+        spheres = robot_spheres(robot)
+        bodies = [
+            Body(link, link, np.eye(4), s, link in moved) for link, s in spheres.items()
+        ]
+        T_links = link_poses(robot, self.base_positions)
+        for att in scene.attached_objects.values():
+            tree = body_tree([(sh, p.matrix()) for sh, p in zip(att.object.shapes, att.object.shape_poses, strict=True)])
+            bodies.append(Body(att.id, att.link, att.object.pose.matrix(), tree, att.link in moved))
+        self.bodies = bodies
+        T_root_world = scene.T_root_world
+        obstacles: list[Obstacle] = []
+        for obj in scene.world_objects.values():
+            for shape, T in zip(obj.shapes, obj.shape_matrices(), strict=True):
+                obstacles.append(obstacle_of(obj.id, shape, T_root_world @ T))
+        self.obstacles = obstacles
+        self._world_objects = list(scene.world_objects.values())
+        self._attached = list(scene.attached_objects.values())
+        self._T_root_world = T_root_world
+
+        self.world_pairs: list[tuple[int, int]] = []
+        self.static_world_pairs: list[tuple[int, int]] = []
+        for bi, b in enumerate(bodies):
+            for oi, o in enumerate(obstacles):
+                if acm.allowed(b.name, o.object_id):
+                    continue
+                (self.world_pairs if b.moving else self.static_world_pairs).append((bi, oi))
+        self.self_pairs: list[tuple[int, int]] = []
+        self.static_self_pairs: list[tuple[int, int]] = []
+        att_by_id = {a.id: a for a in self._attached}
+        for i in range(len(bodies)):
+            for j in range(i + 1, len(bodies)):
+                a, b = bodies[i], bodies[j]
+                if acm.allowed(a.name, b.name):
+                    continue
+                if self._touching_allowed(a, b, att_by_id):
+                    continue
+                if a.moving or b.moving:
+                    self.self_pairs.append((i, j))
+                else:
+                    self.static_self_pairs.append((i, j))
+        self._pack(T_links)
+        self._exact = None
+        self._pair_models: dict[int, tuple] = {}  # type: ignore[type-arg]
+        self.static_collisions = self._static_collisions()
+
+    @staticmethod
+    def _touching_allowed(a: Body, b: Body, att_by_id: dict[str, AttachedObject]) -> bool:
+        """A held object may touch its link and its touch links."""
+        for x, y in ((a, b), (b, a)):
+            att = att_by_id.get(x.name)
+            if att is not None and x.name != y.name and (y.name in att.touch_links or y.name == att.link):
+                return True
+        return False
+
+    # ------------------------------------------------------------------ packing for the kernel
+    def _pack(self, T_links: NDArray[np.float64]) -> None:
+        robot, group = self.robot, self.group
+        bodies = self.bodies
+        link_idx = np.array([robot.link_index(b.link) for b in bodies], dtype=np.int64)
+        self._body_link = link_idx
+        self._body_T = np.array([b.T_link_body for b in bodies]).reshape(-1, 4, 4)
+        node_start = np.concatenate([[0], np.cumsum([len(b.spheres.nodes) for b in bodies])]).astype(np.int64)
+        self._body_root = node_start[:-1].copy()
+        self._nodes = np.vstack([b.spheres.nodes for b in bodies]) if bodies else np.zeros((0, 4))
+        self._left = np.concatenate([np.where(b.spheres.left >= 0, b.spheres.left + o, -1)
+                                     for b, o in zip(bodies, node_start, strict=False)]).astype(np.int64)  # fmt: skip
+        self._right = np.concatenate([np.where(b.spheres.right >= 0, b.spheres.right + o, -1)
+                                      for b, o in zip(bodies, node_start, strict=False)]).astype(np.int64)  # fmt: skip
+        inner = [b.spheres.inner for b in bodies]
+        self._inner_start = np.concatenate([[0], np.cumsum([len(i) for i in inner])]).astype(np.int64)
+        self._inner = np.vstack(inner) if any(len(i) for i in inner) else np.zeros((0, 4))
+        obs = self.obstacles
+        self._obs_kind = np.array([o.kind for o in obs], dtype=np.int64)
+        self._obs_T = np.array([o.T_scene_shape for o in obs]).reshape(-1, 4, 4)
+        self._obs_dims = np.array([o.dims for o in obs]).reshape(-1, 3)
+        self._obs_inner_ok = np.array([o.exact_inner for o in obs], dtype=np.bool_)
+        self._world_pairs = np.array(self.world_pairs, dtype=np.int64).reshape(-1, 2)
+        self._self_pairs = np.array(self.self_pairs, dtype=np.int64).reshape(-1, 2)
+        args = tree_args(robot)
+        self._args = args
+        moving_links = sorted({int(x) for x in link_idx})
+        self._joints = args.joints_to(*moving_links)
+        self._group_idx = group.indices.astype(np.int64)
+
+    # ------------------------------------------------------------------ exact level
+    def _exact_model(self):  # type: ignore[no-untyped-def]
+        """Pinocchio geometry model with the robot, held and world geometry, and exactly the
+        pairs the sphere level checks (static pairs excluded)."""
+        if self._exact is not None:
+            return self._exact
+        import pinocchio as pin
+
+        robot = self.robot
+        gm = robot.pin_collision_model.copy()
+        gm.removeAllCollisionPairs()
+        geoms_of: dict[str, list[int]] = {}
+        for gi, g in enumerate(robot.collision_geometry):
+            geoms_of.setdefault(g.link, []).append(gi)
+        pm = robot.pin_model
+        for att in self._attached:
+            fid = pm.getFrameId(att.link, pin.BODY)
+            frame = pm.frames[fid]
+            T_joint_obj = frame.placement.homogeneous @ att.object.pose.matrix()
+            ids = []
+            for k, (shape, p) in enumerate(zip(att.object.shapes, att.object.shape_poses, strict=True)):
+                go = pin.GeometryObject(f"{att.id}#{k}", frame.parentJoint, fid,
+                                        pin.SE3(T_joint_obj @ p.matrix()), coal_geometry(shape))  # fmt: skip
+                ids.append(gm.addGeometryObject(go))
+            geoms_of[att.id] = ids
+        obs_geoms: list[int] = []
+        for obj in self._world_objects:
+            for k, (shape, T) in enumerate(zip(obj.shapes, obj.shape_matrices(), strict=True)):
+                go = pin.GeometryObject(f"{obj.id}#{k}", 0, 0, pin.SE3(self._T_root_world @ T),
+                                        coal_geometry(shape))  # fmt: skip
+                obs_geoms.append(gm.addGeometryObject(go))
+        for bi, oi in self.world_pairs:
+            for g in geoms_of.get(self.bodies[bi].name, []):
+                gm.addCollisionPair(pin.CollisionPair(g, obs_geoms[oi]))
+        for i, j in self.self_pairs:
+            for ga in geoms_of.get(self.bodies[i].name, []):
+                for gb in geoms_of.get(self.bodies[j].name, []):
+                    gm.addCollisionPair(pin.CollisionPair(ga, gb))
+        self._geoms_of, self._obs_geoms = geoms_of, obs_geoms
+        pool = pin.GeometryPool(pm, gm, max(1, self.exact_threads))
+        self._exact = (gm, gm.createData(), pm.createData(), pool)
+        return self._exact
+
+    def _full(self, qs: NDArray[np.float64]) -> NDArray[np.float64]:
+        full = np.tile(self.base_positions, (qs.shape[0], 1))
+        full[:, self.group.indices] = qs
+        return full
+
+    def check_exact(self, qs: ArrayLike) -> NDArray[np.bool_]:
+        """(N,) bool: the exact (coal) answer alone, batched in C++ over the states."""
+        import pinocchio as pin
+
+        q = self.group.as_joint_batch(qs)
+        if self.static_collisions:
+            return np.ones(q.shape[0], dtype=bool)
+        gm, _, _, pool = self._exact_model()
+        if len(gm.collisionPairs) == 0:
+            return np.zeros(q.shape[0], dtype=bool)
+        Q = np.asfortranarray(self.robot.pin_configurations(self._full(q)).T)
+        return np.asarray(pin.computeCollisionsInParallel(self.exact_threads, pool, Q, True), dtype=bool)
+
+    def classify(self, qs: ArrayLike) -> tuple[NDArray[np.int8], NDArray[np.bool_]]:
+        """The sphere level alone: (N,) int8 (0 free, 1 colliding, 2 unsure) and (N, P) flags
+        of the unsure pairs (world pairs, then self pairs)."""
+        q = self.group.as_joint_batch(qs)
+        a = self._args
+        return K.classify(
+            q, self._group_idx, self.base_positions, self._joints, a.root, *a.arrays, a.n_links,
+            self._body_link, self._body_T, self._body_root, self._nodes, self._left, self._right,
+            self._inner_start, self._inner, self._obs_kind, self._obs_T, self._obs_dims,
+            self._obs_inner_ok, self._world_pairs, self._self_pairs, 64,
+        )  # fmt: skip
+
+    def check(self, qs: ArrayLike) -> NDArray[np.bool_]:
+        """(N,) bool, True where the configuration (N, dof) is in collision."""
+        q = self.group.as_joint_batch(qs)
+        if self.static_collisions:
+            return np.ones(q.shape[0], dtype=bool)
+        cls, flags = self.classify(q)
+        out = cls == K.HIT
+        unsure = np.flatnonzero(cls == K.UNSURE)
+        if len(unsure):
+            U = flags[unsure]
+            hit = np.zeros(len(unsure), dtype=bool)
+            for p in np.flatnonzero(U.any(axis=0)):
+                rows = np.flatnonzero(U[:, p] & ~hit)
+                if len(rows):
+                    hit[rows] = self._exact_pair(int(p), q[unsure[rows]])
+            out[unsure] = hit
+        return out
+
+    def _exact_pair(self, p: int, qs: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Exact check of one pair (index into world pairs then self pairs) at states qs, in C++
+        (batched over threads when there are enough states)."""
+        import pinocchio as pin
+
+        if p not in self._pair_models:
+            gm0, _, _, _ = self._exact_model()
+            gm = gm0.copy()
+            gm.removeAllCollisionPairs()
+            nw = len(self.world_pairs)
+            if p < nw:
+                bi, oi = self.world_pairs[p]
+                for g in self._geoms_of.get(self.bodies[bi].name, []):
+                    gm.addCollisionPair(pin.CollisionPair(g, self._obs_geoms[oi]))
+            else:
+                i, j = self.self_pairs[p - nw]
+                for ga in self._geoms_of.get(self.bodies[i].name, []):
+                    for gb in self._geoms_of.get(self.bodies[j].name, []):
+                        gm.addCollisionPair(pin.CollisionPair(ga, gb))
+            self._pair_models[p] = (gm, gm.createData(), self.robot.pin_model.createData(), None)
+        gm, gd, data, pool = self._pair_models[p]
+        Q = self.robot.pin_configurations(self._full(qs))
+        if len(qs) < 16:
+            pm = self.robot.pin_model
+            return np.array([pin.computeCollisions(pm, data, gm, gd, qv, True) for qv in Q], dtype=bool)
+        if pool is None:
+            pool = pin.GeometryPool(self.robot.pin_model, gm, max(1, self.exact_threads))
+            self._pair_models[p] = (gm, gd, data, pool)
+        return np.asarray(
+            pin.computeCollisionsInParallel(self.exact_threads, pool, np.asfortranarray(Q.T), True),
+            dtype=bool,
+        )
+
+    def is_valid(self, qs: ArrayLike) -> NDArray[np.bool_]:
+        """(N,) bool, True where the configuration is collision-free."""
+        return ~self.check(qs)
+
+    def motion_states(self, q_a: ArrayLike, q_b: ArrayLike, resolution: float = 0.01) -> NDArray[np.float64]:
+        """States on the segment q_a → q_b (both ends included), at most ``resolution`` apart
+        per joint."""
+        a = self.group.as_joint_vector(q_a, "motion start")
+        b = self.group.as_joint_vector(q_b, "motion end")
+        if not resolution > 0:
+            raise SceneError(f"resolution must be > 0, got {resolution}")
+        n = max(1, int(math.ceil(float(np.max(np.abs(b - a))) / resolution)))
+        t = np.linspace(0.0, 1.0, n + 1)[:, None]
+        return a + t * (b - a)
+
+    def check_motion(self, q_a: ArrayLike, q_b: ArrayLike, resolution: float = 0.01) -> bool:
+        """True if any state on the straight segment from q_a to q_b collides."""
+        return bool(self.check(self.motion_states(q_a, q_b, resolution)).any())
+
+    # ------------------------------------------------------------------ diagnostics
+    def _static_collisions(self) -> list[tuple[str, str]]:
+        """Pairs that collide whatever the group's joints do (checked once, exactly)."""
+        if not self.static_world_pairs and not self.static_self_pairs:
+            return []
+        q_now = self.base_positions[self.group.indices]
+        return self.colliding_pairs(q_now, include_static=True, only_static=True)
+
+    def colliding_pairs(
+        self, q: ArrayLike, include_static: bool = True, only_static: bool = False
+    ) -> list[tuple[str, str]]:
+        """Names of the colliding pairs (link, object id or held object id) at configuration q."""
+        import pinocchio as pin
+
+        qv = self.group.as_joint_vector(q)
+        pairs = [] if only_static else [(self.bodies[i].name, self.obstacles[o].object_id) for i, o in self.world_pairs]
+        pairs += [] if only_static else [(self.bodies[i].name, self.bodies[j].name) for i, j in self.self_pairs]
+        if include_static:
+            pairs += [(self.bodies[i].name, self.obstacles[o].object_id) for i, o in self.static_world_pairs]
+            pairs += [(self.bodies[i].name, self.bodies[j].name) for i, j in self.static_self_pairs]
+        gm, gd, data, _ = self._full_exact_model()
+        pin.computeCollisions(self.robot.pin_model, data, gm, gd,
+                              self.robot.pin_configurations(self._full(qv[None]))[0], False)  # fmt: skip
+        hits: set[tuple[str, str]] = set()
+        wanted = {frozenset(p) for p in pairs}
+        for k, cp in enumerate(gm.collisionPairs):
+            if gd.collisionResults[k].isCollision():
+                pair = (self._geom_owner[cp.first], self._geom_owner[cp.second])
+                if frozenset(pair) in wanted:
+                    hits.add(pair)
+        return sorted(hits)
+
+    def min_distance(self, q: ArrayLike) -> tuple[float, tuple[str, str]]:
+        """(distance [m], pair) of the closest checked pair at q (negative: penetration)."""
+        import pinocchio as pin
+
+        qv = self.group.as_joint_vector(q)
+        gm, gd, data, _ = self._full_exact_model()
+        if len(gm.collisionPairs) == 0:
+            return math.inf, ("", "")
+        pin.computeDistances(self.robot.pin_model, data, gm, gd,
+                             self.robot.pin_configurations(self._full(qv[None]))[0])  # fmt: skip
+        d = [r.min_distance for r in gd.distanceResults]
+        k = int(np.argmin(d))
+        cp = gm.collisionPairs[k]
+        return float(d[k]), (self._geom_owner[cp.first], self._geom_owner[cp.second])
+
+    def _full_exact_model(self):  # type: ignore[no-untyped-def]
+        """Like the exact model, with the static pairs too (for queries, not hot paths)."""
+        if getattr(self, "_full_exact", None) is not None:
+            return self._full_exact
+        import pinocchio as pin
+
+        gm0, _, _, _ = self._exact_model()
+        gm = gm0.copy()
+        gm.removeAllCollisionPairs()
+        owner = {}
+        for name, ids in self._geoms_of.items():
+            for g in ids:
+                owner[g] = name
+        for oi, g in enumerate(self._obs_geoms):
+            owner[g] = self.obstacles[oi].object_id
+        self._geom_owner = owner
+        for bi, oi in self.world_pairs + self.static_world_pairs:
+            for g in self._geoms_of.get(self.bodies[bi].name, []):
+                gm.addCollisionPair(pin.CollisionPair(g, self._obs_geoms[oi]))
+        for i, j in self.self_pairs + self.static_self_pairs:
+            for ga in self._geoms_of.get(self.bodies[i].name, []):
+                for gb in self._geoms_of.get(self.bodies[j].name, []):
+                    gm.addCollisionPair(pin.CollisionPair(ga, gb))
+        self._full_exact = (gm, gm.createData(), self.robot.pin_model.createData(), None)
+        return self._full_exact

@@ -1,0 +1,449 @@
+"""Sphere trees of collision geometry: the fast level of the collision checker.
+
+For every body (a robot link, or a held object) two things, in the body's frame:
+
+- a **tree** of spheres: the leaves (a few mm) *cover* exactly what the exact checker (coal)
+  tests: a mesh's surface (coal meshes are surfaces) or a primitive's whole volume (coal
+  primitives are solids); every inner node's sphere contains its children's. If no leaf
+  touches an obstacle, the body does not touch it (certain "free"). Far pairs cost one test at
+  the roots; near pairs descend only where the spheres still overlap.
+- **inner** spheres that lie *inside* the solid: if one of them touches an obstacle, the body
+  does (certain "hit", bodies being solids).
+
+Leaves of a mesh: each triangle is clipped to every cell of a 3-D grid it spans; a ball around
+the clipped pieces' vertices in a cell covers those pieces (balls are convex). Leaves of a primitive: an octree keeps cells wholly inside the solid
+as one sphere each (which are also inner spheres) and splits cells on the surface down to the leaf
+size. Inner spheres of a mesh: points found inside by the winding number, with radius equal to the
+distance to the surface.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere, triangulate
+
+LEAF_SIZE = 0.004  # [m] leaf cell edge: sets how close two bodies can be and still be proven free
+SPHERE_MODEL_VERSION = 5  # bump when the construction changes: cached trees are then rebuilt
+
+
+@dataclass
+class SphereTree:
+    """A body's spheres, rows (x, y, z, r) in the body's frame.
+
+    ``nodes`` (M, 4) with ``left``/``right`` child indices (−1 at leaves); node 0 is the root.
+    ``inner`` (K, 4) spheres inside the solid.
+    """
+
+    nodes: NDArray[np.float64]
+    left: NDArray[np.int64]
+    right: NDArray[np.int64]
+    inner: NDArray[np.float64]
+
+    @property
+    def leaves(self) -> NDArray[np.float64]:
+        return self.nodes[self.left < 0]
+
+    @property
+    def bounding(self) -> NDArray[np.float64]:
+        return self.nodes[0] if len(self.nodes) else np.zeros(4)
+
+
+# ---------------------------------------------------------------------------------- leaves
+@njit(cache=True)
+def _group_balls(V, verts, starts):  # type: ignore[no-untyped-def]
+    """A small ball around each group of points V[verts[starts[g]:starts[g+1]]]: the box
+    centre, improved by Bădoiu–Clarkson steps while they shrink it."""
+    G = starts.shape[0] - 1
+    out = np.empty((G, 4))
+    for g in range(G):
+        a, b = starts[g], starts[g + 1]
+        lo = np.full(3, np.inf)
+        hi = np.full(3, -np.inf)
+        for k in range(a, b):
+            for i in range(3):
+                v = V[verts[k], i]
+                lo[i] = min(lo[i], v)
+                hi[i] = max(hi[i], v)
+        c = 0.5 * (lo + hi)
+        best_c = c.copy()
+        best_r2 = 0.0
+        for k in range(a, b):
+            d2 = 0.0
+            for i in range(3):
+                d2 += (V[verts[k], i] - c[i]) ** 2
+            best_r2 = max(best_r2, d2)
+        for it in range(20):
+            far, far_d2 = a, -1.0
+            for k in range(a, b):
+                d2 = 0.0
+                for i in range(3):
+                    d2 += (V[verts[k], i] - c[i]) ** 2
+                if d2 > far_d2:
+                    far, far_d2 = k, d2
+            if far_d2 < best_r2:
+                best_r2 = far_d2
+                best_c[:] = c
+            for i in range(3):
+                c[i] += (V[verts[far], i] - c[i]) / (it + 2.0)
+        out[g, 0], out[g, 1], out[g, 2] = best_c[0], best_c[1], best_c[2]
+        out[g, 3] = math.sqrt(best_r2) * (1 + 1e-9) + 1e-7
+    return out
+
+
+@njit(cache=True)
+def _clip(poly, n, axis, value, keep_below, out):  # type: ignore[no-untyped-def]
+    """Sutherland–Hodgman: clip polygon poly[:n] by x[axis] <= value (or >=); returns count."""
+    m = 0
+    for i in range(n):
+        a = poly[i]
+        b = poly[(i + 1) % n]
+        da = (a[axis] - value) if keep_below else (value - a[axis])
+        db = (b[axis] - value) if keep_below else (value - b[axis])
+        if da <= 0.0:
+            out[m] = a
+            m += 1
+        if (da < 0.0 < db) or (db < 0.0 < da):
+            t = da / (da - db)
+            out[m] = a + t * (b - a)
+            m += 1
+    return m
+
+
+@njit(cache=True)
+def _cell_points(V, F, lo, h, n):  # type: ignore[no-untyped-def]
+    """For every triangle and every grid cell its bounding box spans, the vertices of the
+    triangle clipped to the cell. Returns (cell codes (K,), points (K, 3))."""
+    cap = 16 * F.shape[0] + 1024
+    codes = np.empty(cap, np.int64)
+    pts = np.empty((cap, 3))
+    k = 0
+    poly = np.empty((12, 3))
+    tmp = np.empty((12, 3))
+    for f in range(F.shape[0]):
+        tri = V[F[f]]
+        cmin = np.empty(3, np.int64)
+        cmax = np.empty(3, np.int64)
+        for ax in range(3):
+            cmin[ax] = int(math.floor((tri[:, ax].min() - lo[ax]) / h))
+            cmax[ax] = int(math.floor((tri[:, ax].max() - lo[ax]) / h))
+        for i in range(cmin[0], cmax[0] + 1):
+            for j in range(cmin[1], cmax[1] + 1):
+                for l in range(cmin[2], cmax[2] + 1):
+                    m = 3
+                    poly[:3] = tri
+                    cell = (i, j, l)
+                    for ax in range(3):
+                        x0 = lo[ax] + cell[ax] * h
+                        m = _clip(poly, m, ax, x0, False, tmp)
+                        if m == 0:
+                            break
+                        m = _clip(tmp, m, ax, x0 + h, True, poly)
+                        if m == 0:
+                            break
+                    if m == 0:
+                        continue
+                    if k + m > cap:
+                        cap *= 2
+                        codes2 = np.empty(cap, np.int64)
+                        pts2 = np.empty((cap, 3))
+                        codes2[:k] = codes[:k]
+                        pts2[:k] = pts[:k]
+                        codes, pts = codes2, pts2
+                    code = (i * n[1] + j) * n[2] + l
+                    for p in range(m):
+                        codes[k] = code
+                        pts[k] = poly[p]
+                        k += 1
+    return codes[:k], pts[:k]
+
+
+def mesh_surface_leaves(V: NDArray[np.float64], F: NDArray[np.int64], h: float) -> NDArray[np.float64]:
+    """Leaf spheres covering a triangle surface: one per occupied grid cell of edge h, around
+    the pieces of the triangles clipped to that cell (a ball contains their convex hulls)."""
+    V = np.ascontiguousarray(V, dtype=float)
+    lo = V.min(axis=0) - 1e-9
+    n = (np.floor((V.max(axis=0) - lo) / h).astype(np.int64) + 2)
+    codes, pts = _cell_points(V, np.ascontiguousarray(F, dtype=np.int64), lo, h, n)
+    order = np.argsort(codes, kind="stable")
+    codes, pts = codes[order], pts[order]
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(codes)) + 1, [len(codes)]])
+    return _group_balls(pts, np.arange(len(pts)), starts)
+
+
+def signed_distance(shape: Shape, P: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Signed distance from points (M, 3) in the shape's frame to a primitive (negative inside)."""
+    if isinstance(shape, Box):
+        q = np.abs(P) - 0.5 * np.asarray(shape.size)
+        outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
+        return outside + np.minimum(q.max(axis=1), 0.0)
+    if isinstance(shape, Cylinder):
+        qr = np.hypot(P[:, 0], P[:, 1]) - shape.radius
+        qz = np.abs(P[:, 2]) - 0.5 * shape.length
+        outside = np.hypot(np.maximum(qr, 0.0), np.maximum(qz, 0.0))
+        return outside + np.minimum(np.maximum(qr, qz), 0.0)
+    if isinstance(shape, Sphere):
+        return np.linalg.norm(P, axis=1) - shape.radius
+    raise TypeError(f"no signed distance for {shape!r}")
+
+
+def primitive_leaves(shape: Shape, h: float) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Octree cover of a solid primitive: (leaves (L, 4), inside (L,)). A cell wholly inside
+    the solid is one leaf (and is flagged: it is an inner sphere); a cell on the surface is split
+    until its circumscribed radius is at most h; cells outside are dropped."""
+    V, _ = triangulate(shape)
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    centre = 0.5 * (lo + hi)
+    half = 0.5 * float((hi - lo).max()) * (1 + 1e-9)
+    centres = centre[None, :]
+    halves = np.array([half])
+    leaves, inside = [], []
+    for _ in range(24):
+        if len(centres) == 0:
+            break
+        R = halves * math.sqrt(3.0)
+        sd = signed_distance(shape, centres)
+        keep_in = sd <= -R  # the whole circumscribed sphere is inside the solid
+        leaves.append(np.c_[centres[keep_in], R[keep_in]])
+        inside.append(np.ones(int(keep_in.sum()), dtype=bool))
+        near = (sd < R) & ~keep_in  # cells the surface may cross
+        small = near & (R <= h)
+        leaves.append(np.c_[centres[small], R[small] * (1 + 1e-9) + 1e-7])
+        inside.append(np.zeros(int(small.sum()), dtype=bool))
+        split = near & ~small
+        c, s = centres[split], halves[split] / 2.0
+        offs = np.array([[dx, dy, dz] for dx in (-1, 1) for dy in (-1, 1) for dz in (-1, 1)], float)
+        centres = (c[:, None, :] + offs[None, :, :] * s[:, None, None]).reshape(-1, 3)
+        halves = np.repeat(s, 8)
+    return np.vstack(leaves), np.concatenate(inside)
+
+
+# ---------------------------------------------------------------------------------- inner
+@njit(cache=True)
+def _closest_on_triangle(p, a, b, c):  # type: ignore[no-untyped-def]
+    """Closest point to p on triangle abc (Ericson, Real-Time Collision Detection 5.1.5)."""
+    ab, ac, ap = b - a, c - a, p - a
+    d1, d2 = ab @ ap, ac @ ap
+    if d1 <= 0.0 and d2 <= 0.0:
+        return a
+    bp = p - b
+    d3, d4 = ab @ bp, ac @ bp
+    if d3 >= 0.0 and d4 <= d3:
+        return b
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        return a + ab * (d1 / (d1 - d3))
+    cp = p - c
+    d5, d6 = ab @ cp, ac @ cp
+    if d6 >= 0.0 and d5 <= d6:
+        return c
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        return a + ac * (d2 / (d2 - d6))
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))
+    denom = 1.0 / (va + vb + vc)
+    return a + ab * (vb * denom) + ac * (vc * denom)
+
+
+@njit(cache=True)
+def winding_and_distance(P, tri):  # type: ignore[no-untyped-def]
+    """Generalized winding number (Jacobson et al. 2013) and unsigned distance to the surface,
+    for points P (M, 3) and a triangle soup tri (F, 3, 3)."""
+    M = P.shape[0]
+    wn = np.zeros(M)
+    dist = np.full(M, np.inf)
+    for i in range(M):
+        p = P[i]
+        acc = 0.0
+        best = np.inf
+        for f in range(tri.shape[0]):
+            a = tri[f, 0] - p
+            b = tri[f, 1] - p
+            c = tri[f, 2] - p
+            la = math.sqrt(a @ a)
+            lb = math.sqrt(b @ b)
+            lc = math.sqrt(c @ c)
+            det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) \
+                + a[2] * (b[0] * c[1] - b[1] * c[0])
+            div = la * lb * lc + (a @ b) * lc + (b @ c) * la + (c @ a) * lb
+            acc += math.atan2(det, div)
+            q = _closest_on_triangle(p, tri[f, 0], tri[f, 1], tri[f, 2]) - p
+            best = min(best, q @ q)
+        wn[i] = acc / (2.0 * math.pi)
+        dist[i] = math.sqrt(best)
+    return wn, dist
+
+
+def _prune_inner(S: NDArray[np.float64], max_inner: int) -> NDArray[np.float64]:
+    """The biggest spheres first, each kept only if a quarter of it reaches outside the kept."""
+    if len(S) == 0:
+        return S.reshape(0, 4)
+    kept: list[NDArray[np.float64]] = []
+    for s in S[np.argsort(-S[:, 3])]:
+        if all(np.linalg.norm(s[:3] - k[:3]) + 0.75 * s[3] > k[3] for k in kept):
+            kept.append(s)
+        if len(kept) >= max_inner:
+            break
+    return np.array(kept)
+
+
+def mesh_inner(V: NDArray[np.float64], F: NDArray[np.int64], max_inner: int = 24) -> NDArray[np.float64]:
+    """Spheres inside a closed mesh (none if it is open or too thin)."""
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    g = [np.linspace(lo[k], hi[k], 8)[1:-1] for k in range(3)]
+    P = np.stack([x.reshape(-1) for x in np.meshgrid(*g, indexing="ij")], axis=1)
+    wn, dist = winding_and_distance(np.ascontiguousarray(P), np.ascontiguousarray(V[F]))
+    ok = (np.abs(wn) > 0.9) & (dist > 1e-3)  # inside (either orientation of the triangles)
+    return _prune_inner(np.c_[P[ok], dist[ok] - 1e-6], max_inner)
+
+
+# ---------------------------------------------------------------------------------- tree
+@njit(cache=True)
+def _build_tree(leaves):  # type: ignore[no-untyped-def]
+    """Binary tree over leaf spheres, median split along the widest axis of the centres; a
+    node's sphere encloses all leaves below it (centred on their bounding box)."""
+    L = leaves.shape[0]
+    M = 2 * L - 1
+    nodes = np.empty((M, 4))
+    left = np.full(M, -1, np.int64)
+    right = np.full(M, -1, np.int64)
+    perm = np.arange(L)
+    stack = np.empty((64, 3), np.int64)  # (start, end, node)
+    stack[0] = (0, L, 0)
+    sp = 1
+    n_nodes = 1
+    while sp > 0:
+        sp -= 1
+        a, b, me = stack[sp, 0], stack[sp, 1], stack[sp, 2]
+        lo = np.full(3, np.inf)
+        hi = np.full(3, -np.inf)
+        clo = np.full(3, np.inf)
+        chi = np.full(3, -np.inf)
+        for k in range(a, b):
+            s = leaves[perm[k]]
+            for i in range(3):
+                lo[i] = min(lo[i], s[i] - s[3])
+                hi[i] = max(hi[i], s[i] + s[3])
+                clo[i] = min(clo[i], s[i])
+                chi[i] = max(chi[i], s[i])
+        c = 0.5 * (lo + hi)
+        r = 0.0
+        for k in range(a, b):
+            s = leaves[perm[k]]
+            d = math.sqrt((s[0] - c[0]) ** 2 + (s[1] - c[1]) ** 2 + (s[2] - c[2]) ** 2) + s[3]
+            r = max(r, d)
+        nodes[me, 0], nodes[me, 1], nodes[me, 2], nodes[me, 3] = c[0], c[1], c[2], r
+        if b - a == 1:
+            nodes[me] = leaves[perm[a]]
+            continue
+        axis = 0
+        for i in range(1, 3):
+            if chi[i] - clo[i] > chi[axis] - clo[axis]:
+                axis = i
+        keys = np.empty(b - a)
+        for k in range(a, b):
+            keys[k - a] = leaves[perm[k], axis]
+        order = np.argsort(keys, kind="mergesort")
+        sub = perm[a:b].copy()
+        for k in range(b - a):
+            perm[a + k] = sub[order[k]]
+        mid = a + (b - a) // 2
+        left[me] = n_nodes
+        right[me] = n_nodes + 1
+        n_nodes += 2
+        stack[sp] = (a, mid, left[me])
+        stack[sp + 1] = (mid, b, right[me])
+        sp += 2
+    return nodes, left, right
+
+
+def build_tree(leaves: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+    """A binary tree over leaf spheres (node 0 is the root; leaves have left = right = −1)."""
+    if len(leaves) == 0:
+        return np.zeros((0, 4)), np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return _build_tree(np.ascontiguousarray(leaves, dtype=float))  # type: ignore[no-any-return]
+
+
+def shape_tree(shape: Shape, T_owner_shape: NDArray[np.float64] | None = None,
+               leaf_size: float = LEAF_SIZE) -> SphereTree:  # fmt: skip
+    """The sphere tree and inner spheres of one shape placed at ``T_owner_shape``."""
+    T = np.eye(4) if T_owner_shape is None else np.asarray(T_owner_shape, float)
+    if isinstance(shape, Mesh):
+        V, F = np.asarray(shape.vertices), np.asarray(shape.triangles)
+        leaves = mesh_surface_leaves(V, F, leaf_size)
+        inner = mesh_inner(V, F)
+    else:
+        leaves, inside = primitive_leaves(shape, leaf_size * math.sqrt(3.0) / 2.0)
+        inner = _prune_inner(leaves[inside], 24)
+    return _place(leaves, inner, T)
+
+
+def _place(leaves: NDArray[np.float64], inner: NDArray[np.float64], T: NDArray[np.float64]) -> SphereTree:
+    def move(S: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.c_[S[:, :3] @ T[:3, :3].T + T[:3, 3], S[:, 3]] if len(S) else S.reshape(0, 4)
+
+    nodes, left, right = build_tree(move(leaves))
+    return SphereTree(nodes, left, right, move(inner))
+
+
+def merge_trees(trees: list[SphereTree]) -> SphereTree:
+    """One tree over several shapes' leaves (one body)."""
+    leaves = [t.leaves for t in trees if len(t.nodes)]
+    inner = [t.inner for t in trees if len(t.inner)]
+    all_leaves = np.vstack(leaves) if leaves else np.zeros((0, 4))
+    nodes, left, right = build_tree(all_leaves)
+    return SphereTree(nodes, left, right, np.vstack(inner) if inner else np.zeros((0, 4)))
+
+
+# ---------------------------------------------------------------------------------- cache
+def _cache_dir() -> Path | None:
+    base = os.environ.get("ROBOCELL_CACHE") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "robocell")
+    path = Path(base) / "spheres"
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    return path
+
+
+def _shape_key(shape: Shape) -> bytes:
+    if isinstance(shape, Mesh):
+        return np.ascontiguousarray(shape.vertices).tobytes() + np.ascontiguousarray(shape.triangles).tobytes()
+    return repr(shape).encode()
+
+
+def body_tree(shapes: list[tuple[Shape, NDArray[np.float64]]], leaf_size: float = LEAF_SIZE) -> SphereTree:
+    """The tree of a body made of several (shape, T_body_shape), cached on disk (building the
+    tree of a fine mesh takes a second; loading it takes a millisecond)."""
+    h = hashlib.sha1(f"v{SPHERE_MODEL_VERSION} leaf {leaf_size}".encode())
+    for shape, T in shapes:
+        h.update(_shape_key(shape))
+        h.update(np.round(np.asarray(T, float), 12).tobytes())
+    folder = _cache_dir()
+    path = None if folder is None else folder / f"{h.hexdigest()}.npz"
+    if path is not None and path.is_file():
+        try:
+            with np.load(path) as d:
+                return SphereTree(d["nodes"], d["left"], d["right"], d["inner"])
+        except (OSError, KeyError, ValueError):
+            pass  # a damaged cache entry is rebuilt
+    tree = merge_trees([shape_tree(s, T, leaf_size) for s, T in shapes])
+    if path is not None:
+        try:
+            tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
+            np.savez(tmp, nodes=tree.nodes, left=tree.left, right=tree.right, inner=tree.inner)
+            os.replace(tmp, path)
+        except OSError:
+            pass
+    return tree
