@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -95,6 +95,27 @@ def coal_geometry(shape: Shape) -> object:
         bvh.endModel()
         return bvh
     raise SceneError(f"cannot build collision geometry for {shape!r}")
+
+
+def exact_data(gm: Any) -> Any:
+    """Geometry data for exact checks. Contacts are enabled: coal 3.0.3's collision test
+    without contact computation (pinocchio's default request) misses shallow penetrations
+    between primitives (seen: two cylinders 0.7 mm deep reported free)."""
+    gd = gm.createData()
+    for req in gd.collisionRequests:
+        req.enable_contact = True
+    return gd
+
+
+def exact_pool(model: Any, gm: Any, threads: int) -> Any:
+    """A pinocchio GeometryPool whose geometry data are configured as :func:`exact_data`'s."""
+    import pinocchio as pin
+
+    pool = pin.GeometryPool(model, gm, max(1, threads))
+    for gd in pool.getGeometryDatas():
+        for req in gd.collisionRequests:
+            req.enable_contact = True
+    return pool
 
 
 class CollisionChecker:
@@ -238,8 +259,8 @@ class CollisionChecker:
                 for gb in geoms_of.get(self.bodies[j].name, []):
                     gm.addCollisionPair(pin.CollisionPair(ga, gb))
         self._geoms_of, self._obs_geoms = geoms_of, obs_geoms
-        pool = pin.GeometryPool(pm, gm, max(1, self.exact_threads))
-        self._exact = (gm, gm.createData(), pm.createData(), pool)
+        pool = exact_pool(pm, gm, self.exact_threads)
+        self._exact = (gm, exact_data(gm), pm.createData(), pool)
         return self._exact
 
     def _full(self, qs: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -309,14 +330,14 @@ class CollisionChecker:
                 for ga in self._geoms_of.get(self.bodies[i].name, []):
                     for gb in self._geoms_of.get(self.bodies[j].name, []):
                         gm.addCollisionPair(pin.CollisionPair(ga, gb))
-            self._pair_models[p] = (gm, gm.createData(), self.robot.pin_model.createData(), None)
+            self._pair_models[p] = (gm, exact_data(gm), self.robot.pin_model.createData(), None)
         gm, gd, data, pool = self._pair_models[p]
         Q = self.robot.pin_configurations(self._full(qs))
         if len(qs) < 16:
             pm = self.robot.pin_model
             return np.array([pin.computeCollisions(pm, data, gm, gd, qv, True) for qv in Q], dtype=bool)
         if pool is None:
-            pool = pin.GeometryPool(self.robot.pin_model, gm, max(1, self.exact_threads))
+            pool = exact_pool(self.robot.pin_model, gm, self.exact_threads)
             self._pair_models[p] = (gm, gd, data, pool)
         return np.asarray(
             pin.computeCollisionsInParallel(self.exact_threads, pool, np.asfortranarray(Q.T), True),
@@ -412,5 +433,5 @@ class CollisionChecker:
             for ga in self._geoms_of.get(self.bodies[i].name, []):
                 for gb in self._geoms_of.get(self.bodies[j].name, []):
                     gm.addCollisionPair(pin.CollisionPair(ga, gb))
-        self._full_exact = (gm, gm.createData(), self.robot.pin_model.createData(), None)
+        self._full_exact = (gm, exact_data(gm), self.robot.pin_model.createData(), None)
         return self._full_exact

@@ -1,0 +1,53 @@
+"""Shared fixtures: bundled robots and the MotionBenchMaker robots from ../shared/bench/mbm."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from robocell.robot import RobotModel
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def shared_dir() -> Path:
+    """``$ROBOCELL_SHARED`` or ../shared beside the repository (CI puts it there)."""
+    env = os.environ.get("ROBOCELL_SHARED")
+    path = Path(env) if env else REPO.parent / "shared"
+    if not (path / "bench" / "mbm").is_dir():
+        raise FileNotFoundError(
+            f"the shared benchmark problems are missing: {path / 'bench' / 'mbm'} "
+            "(set ROBOCELL_SHARED to the folder that holds bench/mbm)"
+        )
+    return path
+
+
+def mbm_dir() -> Path:
+    return shared_dir() / "bench" / "mbm"
+
+
+def load_mbm(robot: str) -> RobotModel:
+    d = mbm_dir() / robot
+    return RobotModel.from_urdf(d / f"{robot}.urdf", d / f"{robot}.srdf", package_dirs=[d])
+
+
+@pytest.fixture(scope="session")
+def irb120() -> RobotModel:
+    return RobotModel.load("irb120_robotiq85")
+
+
+@pytest.fixture(scope="session")
+def ur5e() -> RobotModel:
+    return RobotModel.load("ur5e_gripper")
+
+
+@pytest.fixture(scope="session")
+def mbm_ur5() -> RobotModel:
+    return load_mbm("ur5")
+
+
+@pytest.fixture(scope="session")
+def mbm_panda() -> RobotModel:
+    return load_mbm("panda")

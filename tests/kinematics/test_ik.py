@@ -1,0 +1,136 @@
+import dataclasses
+
+import numpy as np
+import pytest
+
+from robocell.errors import IKError, ModelError
+from robocell.geometry import Pose
+from robocell.kinematics import (
+    AnalyticIK,
+    NumericIK,
+    OPWParameters,
+    URParameters,
+    fk,
+    ik_solver,
+    pose_error,
+    solve_ik,
+)
+from robocell.scene import PlanningScene
+
+
+def _round_trips(group, n, seed, tip=None):
+    rng = np.random.default_rng(seed)
+    counts = []
+    for _ in range(n):
+        q = group.random(rng)
+        T = fk(group, q, tip, relative_to=group.base_link)
+        res = solve_ik(group, T, seed=q, tip_link=tip)
+        assert res.success, res.reason
+        for sol in res.solutions:
+            assert group.within_limits(sol)
+            ep, er = pose_error(fk(group, sol, tip, relative_to=group.base_link), T)
+            assert ep < 1e-6 and er < 1e-6
+        # the original configuration is among the solutions (up to conditioning near singularities)
+        assert np.min(np.abs(res.solutions - q).max(axis=1)) < 1e-4
+        counts.append(len(res.solutions))
+    return counts
+
+
+def test_opw_round_trips_irb120(irb120):
+    arm = irb120.group("arm")
+    assert ik_solver(arm).name == "opw"
+    counts = _round_trips(arm, 200, 0)
+    assert max(counts) <= 8 and min(counts) >= 1
+
+
+def test_opw_gives_eight_solutions_at_a_generic_pose(irb120):
+    """With the joint limits opened to ±2π every branch is within reach: 8 solutions (each
+    with its 2π wraps) that all reach the pose."""
+    arm = dataclasses.replace(irb120.group("arm"), lower=np.full(6, -2 * np.pi), upper=np.full(6, 2 * np.pi))
+    solver = AnalyticIK(arm, OPWParameters(0, -0.070, 0, 0.290, 0.270, 0.302, 0.072,
+                                           offsets=(0, 0, -np.pi / 2, 0, 0, 0)))  # fmt: skip
+    T = fk(arm, [0.3, 0.2, -0.4, 0.5, 0.6, 0.7], relative_to="base_link")
+    sols = solver.solve(T).solutions
+    assert all(max(pose_error(fk(arm, s, relative_to="base_link"), T)) < 1e-6 for s in sols)
+    distinct = {tuple(np.round(np.mod(s + np.pi, 2 * np.pi) - np.pi, 6)) for s in sols}
+    assert len(distinct) == 8
+    assert len(sols) == 8 * 2**6  # each branch with both 2π wraps of every joint
+
+
+def test_ur_round_trips_ur5e(ur5e):
+    arm = ur5e.group("manipulator")
+    assert ik_solver(arm).name == "ur"
+    counts = _round_trips(arm, 100, 1)
+    # ±2π on five joints: every branch comes with its 2π wraps
+    assert max(counts) >= 64
+
+
+def test_ur_closed_form_on_the_mbm_ur5(mbm_ur5):
+    """The MBM UR5's URDF frames differ from DH (base rotated by π, tool frame ee_link): the fit
+    finds the transforms, and the solver agrees with FK."""
+    arm = mbm_ur5.group("manipulator")
+    solver = AnalyticIK(arm, URParameters(0.089159, -0.425, -0.39225, 0.10915, 0.09465, 0.0823))
+    rng = np.random.default_rng(2)
+    for _ in range(50):
+        q = arm.random(rng)
+        T = fk(arm, q, relative_to=arm.base_link)
+        sols = solver.solve(T, seed=q).solutions
+        assert np.min(np.abs(sols - q).max(axis=1)) < 1e-4
+
+
+def test_wrong_parameters_are_refused(irb120):
+    with pytest.raises(ModelError, match="do not describe group 'arm'"):
+        AnalyticIK(irb120.group("arm"), OPWParameters(0, -0.07, 0, 0.3, 0.27, 0.302, 0.072,
+                                                      offsets=(0, 0, -np.pi / 2, 0, 0, 0)))  # fmt: skip
+
+
+@pytest.mark.parametrize("robot_name, group", [("mbm_ur5", "manipulator"), ("mbm_panda", "panda_arm")])
+def test_numeric_ik_round_trips(request, robot_name, group):
+    robot = request.getfixturevalue(robot_name)
+    g = robot.group(group)
+    solver = ik_solver(g)
+    assert isinstance(solver, NumericIK)
+    rng = np.random.default_rng(4)
+    ok = 0
+    for _ in range(100):
+        q = g.random(rng)
+        T = fk(g, q, relative_to=g.base_link)
+        res = solve_ik(g, T, rng=rng, timeout=0.2)
+        if res.success:
+            ok += 1
+            assert g.within_limits(res.best)
+            assert max(pose_error(fk(g, res.best, relative_to=g.base_link), T)) < 1e-6
+    assert ok >= 98
+
+
+def test_out_of_reach_says_so(irb120):
+    arm = irb120.group("arm")
+    res = solve_ik(arm, Pose((2.0, 0, 0.5)))
+    assert not res.success and "out of reach" in res.reason
+    with pytest.raises(IKError, match="no IK solution"):
+        _ = res.best
+
+
+def test_collision_free_filter_and_reason(irb120):
+    arm = irb120.group("arm")
+    scene = PlanningScene(irb120)
+    q = np.array([0.0, 0.3, 0.2, 0.0, 1.0, 0.0])
+    T = fk(arm, q, relative_to="base_link")
+    free = solve_ik(arm, T, seed=q, checker=scene.checker(arm))
+    assert free.success
+    # a box around the tool: every solution reaches into it
+    scene.add_box("block", Pose.from_matrix(fk(arm, q, "tcp")), (0.1, 0.1, 0.1))
+    blocked = solve_ik(arm, T, seed=q, checker=scene.checker(arm))
+    assert not blocked.success and "in collision" in blocked.reason
+    # without the filter the same pose still has solutions
+    assert solve_ik(arm, T, checker=scene.checker(arm), collision_free=False).success
+
+
+def test_bad_targets(irb120):
+    arm = irb120.group("arm")
+    with pytest.raises(IKError, match="NaN"):
+        solve_ik(arm, np.full((4, 4), np.nan))
+    with pytest.raises(IKError, match="4x4"):
+        solve_ik(arm, np.eye(3))
+    with pytest.raises(ModelError, match="IK seed"):
+        solve_ik(arm, Pose((0.4, 0, 0.4)), seed=[0, 0])

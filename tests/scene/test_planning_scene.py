@@ -1,0 +1,173 @@
+import numpy as np
+import pytest
+
+from robocell.errors import GeometryError, ModelError, SceneError
+from robocell.geometry import Box, Cylinder, Pose, Sphere
+from robocell.kinematics import fk
+from robocell.scene import CollisionObject, PlanningScene, scene_to_dict
+
+
+@pytest.fixture
+def scene(irb120):
+    s = PlanningScene(irb120)
+    s.add_box("table", Pose((0.5, 0.0, 0.05)), (0.4, 0.6, 0.1))
+    s.add_cylinder("can", Pose((0.45, 0.2, 0.16)), 0.03, 0.12)
+    return s
+
+
+def _snapshot(scene):
+    return scene_to_dict(scene), scene.state.positions.copy()
+
+
+def _same(a, b):
+    return a[0] == b[0] and np.array_equal(a[1], b[1])
+
+
+def test_add_move_remove(scene):
+    assert scene.object_ids == ["table", "can"]
+    scene.move_object("can", Pose((0.4, -0.2, 0.16)))
+    assert np.allclose(scene.get_object("can").pose.position, [0.4, -0.2, 0.16])
+    scene.remove_object("can")
+    assert scene.object_ids == ["table"]
+
+
+@pytest.mark.parametrize(
+    "action, error, words",
+    [
+        (lambda s: s.add_box("table", Pose(), (1, 1, 1)), SceneError, "already exists"),
+        (lambda s: s.add_box("x", Pose(), (1, -1, 1)), GeometryError, "positive"),
+        (lambda s: s.add_box("x", Pose((0, 0, np.nan)), (1, 1, 1)), GeometryError, "NaN"),
+        (lambda s: s.add_sphere("link_1", Pose(), 0.1), SceneError, "robot link"),
+        (lambda s: s.move_object("tabel", Pose()), SceneError, "unknown object 'tabel'; known: can, table"),
+        (lambda s: s.remove_object("cann"), SceneError, "known: can, table"),
+        (lambda s: s.detach_object("can"), SceneError, "not attached; attached: \\(none\\)"),
+        (lambda s: s.attach_object("can", "gripper_palm"), ModelError, "unknown link 'gripper_palm'"),
+        (lambda s: s.attach_object("can", "tool0", ["fingr"]), ModelError, "unknown link 'fingr'"),
+        (lambda s: s.set_joint_positions("arm", [0, 0, 3.0, 0, 0, 0]), SceneError, "joint_3=3.0000 not in"),
+        (lambda s: s.set_joint_positions("arm", [0, 0]), ModelError, "must have 6 entries"),
+        (lambda s: s.allow_collision("can", "tabel"), SceneError, "unknown link or object 'tabel'"),
+        (lambda s: s.add_object(CollisionObject("bad id!", (Box((1, 1, 1)),), (Pose(),))), SceneError, "not valid"),
+    ],
+)
+def test_bad_operations_raise_and_change_nothing(scene, action, error, words):
+    before = _snapshot(scene)
+    with pytest.raises(error, match=words):
+        action(scene)
+    assert _same(before, _snapshot(scene))
+
+
+def test_attach_keeps_the_world_pose_and_detach_puts_it_back(irb120):
+    scene = PlanningScene(irb120)
+    arm = irb120.group("arm")
+    q = np.array([0.2, 0.3, 0.1, 0.0, 0.8, 0.0])
+    scene.set_joint_positions("arm", q)
+    T_tcp = fk(arm, q, "tcp")
+    scene.add_box("part", Pose.from_matrix(T_tcp), (0.03, 0.03, 0.03))
+    held = scene.attach_object("part", "tool0")
+    assert held.touch_links >= {"tool0", "gripper_left_finger", "gripper_right_finger"}
+    assert "part" not in scene.object_ids and "part" in scene.attached_objects
+    assert not scene.in_collision()  # touching the fingers is allowed
+    q2 = np.array([-0.5, 0.1, 0.2, 0.3, 0.6, 0.1])
+    scene.set_joint_positions("arm", q2)
+    obj = scene.detach_object("part")
+    assert np.allclose(obj.pose.matrix(), fk(arm, q2, "tcp"), atol=1e-12)
+    with pytest.raises(SceneError, match="is not attached"):
+        scene.detach_object("part")
+
+
+def test_held_object_collides_with_world_and_robot(irb120):
+    scene = PlanningScene(irb120)
+    arm = irb120.group("arm")
+    q = np.array([0.0, 0.4, 0.3, 0.0, 0.87, 0.0])  # tool pointing down
+    scene.set_joint_positions("arm", q)
+    T_tcp = fk(arm, q, "tcp")
+    assert np.allclose(T_tcp[:3, 0], [0, 0, -1], atol=1e-3)  # approach axis (tool x) points down
+    # a 0.2 m bar hanging from the TCP along the approach axis
+    T_bar = T_tcp @ Pose.from_rpy(0.1, 0, 0, 0, np.pi / 2, 0).matrix()
+    scene.add_cylinder("bar", Pose.from_matrix(T_bar), 0.01, 0.2)
+    scene.attach_object("bar", "tool0")
+    assert not scene.in_collision()
+    # a floor whose top is 1 cm above the bar's lower end
+    scene.add_box("floor", Pose(T_tcp[:3, 3] - [0, 0, 0.2 + 0.05 - 0.01]), (0.3, 0.3, 0.1))
+    assert ("bar", "floor") in scene.colliding_pairs() or ("floor", "bar") in scene.colliding_pairs()
+    scene.allow_collision("bar", "floor")
+    assert not scene.in_collision()
+
+
+def test_colliding_pairs_and_distance(scene, irb120):
+    arm = irb120.group("arm")
+    home = arm.named("home")
+    assert not scene.in_collision(home, arm)
+    d = scene.distance(home, arm)
+    assert d.distance > 0
+    down = np.array([0.0, 1.2, 0.3, 0.0, 0.0, 0.0])  # arm swung down into the table
+    assert scene.in_collision(down, arm)
+    pairs = scene.colliding_pairs(down, arm)
+    assert any("table" in p for p in pairs)
+    assert scene.distance(down, arm).distance <= 0.0
+
+
+def test_acm_allows_and_forbids(scene, irb120):
+    down = np.array([0.0, 1.2, 0.3, 0.0, 0.0, 0.0])
+    links = [p[0] if p[1] == "table" else p[1] for p in scene.colliding_pairs(down, "arm") if "table" in p]
+    for link in links:
+        scene.allow_collision(link, "table")
+    assert not any("table" in p for p in scene.colliding_pairs(down, "arm"))
+    scene.allow_collision(links[0], "table", False)
+    assert any("table" in p for p in scene.colliding_pairs(down, "arm"))
+
+
+def _exact_agrees(checker, qs):
+    fast = checker.check(qs)
+    exact = checker.check_exact(qs)
+    free_but_hit = np.flatnonzero(~fast & exact)
+    return fast, exact, free_but_hit
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_fast_check_never_calls_a_colliding_state_free(scene, irb120, seed):
+    scene.add_sphere("ball", Pose((0.3, -0.3, 0.4)), 0.08)
+    scene.add_shape("post", Cylinder(0.05, 0.8), Pose((-0.3, 0.3, 0.4)))
+    arm = irb120.group("arm")
+    checker = scene.checker(arm)
+    qs = arm.random(np.random.default_rng(seed), 4000)
+    fast, exact, free_but_hit = _exact_agrees(checker, qs)
+    assert len(free_but_hit) == 0
+    assert 0.05 < exact.mean() < 0.95  # the sample exercises both answers
+    # the sphere level decides most states by itself
+    cls, _ = checker.classify(qs)
+    assert (cls != 2).mean() > 0.7
+
+
+def test_check_motion(scene, irb120):
+    arm = irb120.group("arm")
+    checker = scene.checker(arm)
+    a = np.array([-1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    assert not checker.check_motion(a, a + [2.0, 0, 0, 0, 0, 0])
+    down = np.array([0.0, 1.2, 0.3, 0.0, 0.0, 0.0])
+    assert checker.check_motion(arm.named("home"), down)
+    states = checker.motion_states(a, a + [0.1, 0, 0, 0, 0, 0], resolution=0.01)
+    assert len(states) == 11 and np.allclose(states[-1, 0], -0.9)
+    with pytest.raises(SceneError, match="resolution"):
+        checker.check_motion(a, a, resolution=0)
+
+
+def test_checker_sees_scene_changes(scene, irb120):
+    arm = irb120.group("arm")
+    q = np.array([0.0, 0.5, 0.0, 0.0, 0.5, 0.0])
+    assert not scene.in_collision(q, arm)
+    scene.add_shape("blocker", Sphere(0.05), Pose.from_matrix(fk(arm, q, "tcp")))
+    assert scene.in_collision(q, arm)
+    scene.remove_object("blocker")
+    assert not scene.in_collision(q, arm)
+
+
+def test_gripper_joint_state_moves_fingers_in_arm_checks(irb120):
+    scene = PlanningScene(irb120)
+    arm = irb120.group("arm")
+    q = np.array([0.0, 0.5, 0.0, 0.0, 0.5, 0.0])
+    T_tcp = fk(arm, q, "tcp")
+    scene.add_shape("block", Box((0.02, 0.06, 0.02)), Pose.from_matrix(T_tcp))  # 6 cm across y_tool
+    assert not scene.in_collision(q, arm)  # open: 85 mm between the pads
+    scene.set_joint_positions("gripper", [0.8])
+    assert scene.in_collision(q, arm)  # closed: the pads meet inside the block

@@ -1,0 +1,54 @@
+import numpy as np
+import pytest
+
+from robocell.geometry import Box, Cylinder, Mesh, Sphere, triangulate
+from robocell.scene.spheres import shape_tree, signed_distance
+
+
+def _leaves_of(tree, i):
+    if tree.left[i] < 0:
+        return [i]
+    return _leaves_of(tree, tree.left[i]) + _leaves_of(tree, tree.right[i])
+
+
+def _covered(tree, P):
+    L = tree.leaves
+    d = np.linalg.norm(P[:, None, :] - L[None, :, :3], axis=2) - L[None, :, 3]
+    return d.min(axis=1) <= 1e-9
+
+
+@pytest.mark.parametrize("shape", [Box((0.2, 0.1, 0.05)), Cylinder(0.04, 0.2), Sphere(0.05)])
+def test_primitive_leaves_cover_the_solid_and_inner_spheres_are_inside(shape):
+    tree = shape_tree(shape)
+    rng = np.random.default_rng(0)
+    P = rng.uniform(-0.11, 0.11, (20000, 3))
+    inside = signed_distance(shape, P) <= 0
+    assert _covered(tree, P[inside]).all()
+    # inner spheres lie inside the solid
+    assert len(tree.inner) > 0
+    assert np.all(signed_distance(shape, tree.inner[:, :3]) <= -tree.inner[:, 3] + 1e-9)
+
+
+def test_mesh_leaves_cover_the_surface():
+    V, F = triangulate(Cylinder(0.05, 0.3), segments=40)
+    T = np.eye(4)
+    T[:3, 3] = (0.1, 0, 0)
+    tree = shape_tree(Mesh(V, F), T)
+    rng = np.random.default_rng(1)
+    tri = V[F] + T[:3, 3]
+    u = rng.random((5000, 2))
+    flip = u.sum(axis=1) > 1
+    u[flip] = 1 - u[flip]
+    k = rng.integers(0, len(F), 5000)
+    P = tri[k, 0] + u[:, :1] * (tri[k, 1] - tri[k, 0]) + u[:, 1:] * (tri[k, 2] - tri[k, 0])
+    assert _covered(tree, P).all()
+    assert len(tree.inner) > 0  # a closed mesh has spheres inside
+    assert np.all(np.hypot(tree.inner[:, 0] - 0.1, tree.inner[:, 1]) + tree.inner[:, 3] <= 0.05 / np.cos(np.pi / 40) + 1e-9)
+
+
+def test_every_node_contains_the_leaves_below_it():
+    tree = shape_tree(Box((0.1, 0.2, 0.05)))
+    for i in np.flatnonzero(tree.left >= 0)[:300]:
+        lv = _leaves_of(tree, int(i))
+        n = tree.nodes[i]
+        assert np.all(np.linalg.norm(tree.nodes[lv, :3] - n[:3], axis=1) + tree.nodes[lv, 3] <= n[3] + 1e-9)
