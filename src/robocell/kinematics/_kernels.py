@@ -270,3 +270,14 @@ def numeric_ik(  # type: ignore[no-untyped-def]
     for i in range(n):
         best[i] = q[group_idx[i]]
     return best, False, seeds.shape[0], total_iters
+
+
+@njit(cache=True)
+def fk_link(qg, group_idx, q_base, joints, root, parent, child, origin, jtype, axis, var, mult, offset, n_links, link):  # type: ignore[no-untyped-def]
+    """Pose (4, 4) of one link for group joint values qg (other joints at q_base)."""
+    q = q_base.copy()
+    for i in range(group_idx.shape[0]):
+        q[group_idx[i]] = qg[i]
+    T = np.empty((n_links, 4, 4))
+    fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
+    return T[link].copy()

@@ -75,6 +75,32 @@ def parameters_from_config(config: dict) -> OPWParameters | URParameters:
     raise ModelError(f"kinematics: unknown analytic solver {solver!r}; known: opw, ur")
 
 
+@njit(cache=True, inline="always")
+def _mm(A, B):  # type: ignore[no-untyped-def]
+    """Small matrix product by loops (numba sends 2-D @ to BLAS: ~1 µs for a 3×3)."""
+    n, m, k = A.shape[0], B.shape[1], A.shape[1]
+    C = np.zeros((n, m))
+    for i in range(n):
+        for j in range(m):
+            acc = 0.0
+            for l in range(k):
+                acc += A[i, l] * B[l, j]
+            C[i, j] = acc
+    return C
+
+
+@njit(cache=True, inline="always")
+def _mv(A, v):  # type: ignore[no-untyped-def]
+    n, k = A.shape[0], A.shape[1]
+    out = np.zeros(n)
+    for i in range(n):
+        acc = 0.0
+        for l in range(k):
+            acc += A[i, l] * v[l]
+        out[i] = acc
+    return out
+
+
 # ---------------------------------------------------------------------------------------- OPW
 @njit(cache=True)
 def _rz(t):  # type: ignore[no-untyped-def]
@@ -94,13 +120,13 @@ def opw_fk(p, q):  # type: ignore[no-untyped-def]
     a1, a2, b, c1, c2, c3, c4 = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
     R1 = _rz(q[0])
     local = np.array([a1, b, c1])
-    local += _ry(q[1]) @ np.array([0.0, 0.0, c2])
-    local += _ry(q[1] + q[2]) @ np.array([a2, 0.0, c3])
-    R0c = R1 @ _ry(q[1] + q[2])  # canonical: forearm along z at q2 = q3 = 0
-    R0e = R0c @ _rz(q[3]) @ _ry(q[4]) @ _rz(q[5])
+    local += _mv(_ry(q[1]), np.array([0.0, 0.0, c2]))
+    local += _mv(_ry(q[1] + q[2]), np.array([a2, 0.0, c3]))
+    R0c = _mm(R1, _ry(q[1] + q[2]))  # canonical: forearm along z at q2 = q3 = 0
+    R0e = _mm(_mm(_mm(R0c, _rz(q[3])), _ry(q[4])), _rz(q[5]))
     T = np.eye(4)
     T[:3, :3] = R0e
-    T[:3, 3] = R1 @ local + c4 * R0e[:, 2]
+    T[:3, 3] = _mv(R1, local) + c4 * R0e[:, 2]
     return T
 
 
@@ -142,7 +168,7 @@ def opw_ik(p, T, wrist_seed):  # type: ignore[no-untyped-def]
             g = math.acos(cg) if i3 == 0 else -math.acos(cg)
             q3 = g - psi3
             q2 = math.atan2(u, v) - math.atan2(k * math.sin(g), c2 + k * math.cos(g))
-            Rw = (_rz(q1) @ _ry(q2 + q3)).T @ R
+            Rw = _mm(_mm(_rz(q1), _ry(q2 + q3)).T, R)
             s5 = math.sqrt(Rw[0, 2] * Rw[0, 2] + Rw[1, 2] * Rw[1, 2])
             if s5 < 1e-10:
                 q5 = 0.0 if Rw[2, 2] > 0 else math.pi
@@ -183,12 +209,23 @@ _UR_ALPHA = np.array([math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0])
 
 @njit(cache=True)
 def ur_fk(p, q):  # type: ignore[no-untyped-def]
-    """UR forward kinematics in DH frames: T_0_6 for joint values q (6,)."""
-    d = np.array([p[0], 0.0, 0.0, p[3], p[4], p[5]])
-    a = np.array([0.0, p[1], p[2], 0.0, 0.0, 0.0])
+    """UR forward kinematics in DH frames: T_0_6 for joint values q (6,).
+
+    T ← T · DH_i in place, column by column (DH_i = Rz(θ) Tz(d) Tx(a) Rx(α)), no allocation
+    per joint.
+    """
+    d = (p[0], 0.0, 0.0, p[3], p[4], p[5])
+    a = (0.0, p[1], p[2], 0.0, 0.0, 0.0)
     T = np.eye(4)
     for i in range(6):
-        T = T @ _dh(q[i], d[i], a[i], _UR_ALPHA[i])
+        ct, st = math.cos(q[i]), math.sin(q[i])
+        ca, sa = math.cos(_UR_ALPHA[i]), math.sin(_UR_ALPHA[i])
+        for r in range(3):
+            c0, c1, c2, c3 = T[r, 0], T[r, 1], T[r, 2], T[r, 3]
+            T[r, 0] = ct * c0 + st * c1
+            T[r, 1] = -st * ca * c0 + ct * ca * c1 + sa * c2
+            T[r, 2] = st * sa * c0 - ct * sa * c1 + ca * c2
+            T[r, 3] = a[i] * ct * c0 + a[i] * st * c1 + d[i] * c2 + c3
     return T
 
 
@@ -197,7 +234,7 @@ def _inv(T):  # type: ignore[no-untyped-def]
     out = np.eye(4)
     Rt = np.ascontiguousarray(T[:3, :3].T)
     out[:3, :3] = Rt
-    out[:3, 3] = -(Rt @ np.ascontiguousarray(T[:3, 3]))
+    out[:3, 3] = -_mv(Rt, T[:3, 3])
     return out
 
 
@@ -234,7 +271,7 @@ def ur_ik(p, T, wrist_seed):  # type: ignore[no-untyped-def]
             T01 = _dh(q1, d1, 0.0, math.pi / 2)
             T45 = _dh(q5, d5, 0.0, -math.pi / 2)
             T56 = _dh(q6, d6, 0.0, 0.0)
-            T14 = _inv(T01) @ T @ _inv(T45 @ T56)
+            T14 = _mm(_mm(_inv(T01), T), _inv(_mm(T45, T56)))
             px = T14[0, 3] - d4 * T14[0, 1]
             py = T14[1, 3] - d4 * T14[1, 1]
             norm = math.hypot(px, py)
@@ -247,8 +284,8 @@ def ur_ik(p, T, wrist_seed):  # type: ignore[no-untyped-def]
                 q2 = -math.atan2(py, -px) + math.asin(
                     max(-1.0, min(1.0, a3 * math.sin(q3) / norm))
                 )
-                T13 = _dh(q2, 0.0, a2, 0.0) @ _dh(q3, 0.0, a3, 0.0)
-                T34 = _inv(T13) @ T14
+                T13 = _mm(_dh(q2, 0.0, a2, 0.0), _dh(q3, 0.0, a3, 0.0))
+                T34 = _mm(_inv(T13), T14)
                 q4 = math.atan2(T34[1, 0], T34[0, 0])
                 out[n] = (q1, q2, q3, q4, q5, q6)
                 n += 1
@@ -256,21 +293,6 @@ def ur_ik(p, T, wrist_seed):  # type: ignore[no-untyped-def]
 
 
 # ---------------------------------------------------------------------------------- shared
-@njit(cache=True)
-def _pose_close(A, B, tol_pos, tol_rot):  # type: ignore[no-untyped-def]
-    dp = 0.0
-    for i in range(3):
-        dp += (A[i, 3] - B[i, 3]) ** 2
-    if math.sqrt(dp) > tol_pos:
-        return False
-    tr = 0.0
-    for i in range(3):
-        for j in range(3):
-            tr += A[j, i] * B[j, i]
-    c = min(1.0, max(-1.0, (tr - 1.0) / 2.0))
-    return math.acos(c) <= tol_rot
-
-
 @njit(cache=True)
 def _expand_wraps(sol, lower, upper, out, n):  # type: ignore[no-untyped-def]
     """Append to ``out`` every 2π variant of ``sol`` that lies within the limits; returns new n."""
@@ -312,10 +334,12 @@ def _canon_error(kind, p, qc, T, e):  # type: ignore[no-untyped-def]
     for i in range(3):
         e[i] = T[i, 3] - Tc[i, 3]
     # small-angle rotation error: vee(R_target R_cᵀ − I) / 2 · … is enough near a solution
-    R = np.ascontiguousarray(T[:3, :3]) @ np.ascontiguousarray(Tc[:3, :3].T)
+    R = _mm(T[:3, :3], Tc[:3, :3].T)
     e[3] = 0.5 * (R[2, 1] - R[1, 2])
     e[4] = 0.5 * (R[0, 2] - R[2, 0])
     e[5] = 0.5 * (R[1, 0] - R[0, 1])
+    if R[0, 0] + R[1, 1] + R[2, 2] < 1.0:  # more than 90° off: vee(R − Rᵀ) would shrink again
+        return np.inf
     return math.sqrt((e * e).sum())
 
 
@@ -329,7 +353,7 @@ def _polish(kind, p, qc, T):  # type: ignore[no-untyped-def]
     for _ in range(3):
         err = _canon_error(kind, p, qc, T, e)
         if err < 1e-11:
-            return
+            return err
         h = 1e-7
         for j in range(6):
             qc[j] += h
@@ -340,6 +364,7 @@ def _polish(kind, p, qc, T):  # type: ignore[no-untyped-def]
         dq = np.linalg.lstsq(J, e)[0]
         for j in range(6):
             qc[j] += dq[j]
+    return _canon_error(kind, p, qc, T, e)
 
 
 @njit(cache=True)
@@ -354,12 +379,28 @@ def solve_analytic(kind, p, T_canon, signs, offsets, lower, upper, wrist_seed, t
     n = 0
     for i in range(cands.shape[0]):
         qc = cands[i].copy()
-        _polish(kind, p, qc, T_canon)
-        Tc = opw_fk(p, qc) if kind == 0 else ur_fk(p, qc)
-        if not _pose_close(Tc, T_canon, tol_pos, tol_rot):
+        # the residual (position and small-angle rotation, combined) must be within tolerance
+        if _polish(kind, p, qc, T_canon) > min(tol_pos, tol_rot):
             continue
         q = np.empty(6)
         for j in range(6):
             q[j] = (qc[j] + offsets[j]) * signs[j]
         n = _expand_wraps(q, lower, upper, out, n)
     return out[:n]
+
+
+@njit(cache=True)
+def solve_ordered(kind, p, T_base_tip, T_canon_base, T_tip_flange, seed, signs, offsets, lower, upper, wrist_index, tol):  # type: ignore[no-untyped-def]
+    """:func:`solve_analytic` for a target in the URDF base frame, solutions ordered by their
+    distance to ``seed``."""
+    T_canon = _mm(_mm(T_canon_base, T_base_tip), T_tip_flange)
+    wrist_seed = signs[wrist_index] * seed[wrist_index] - offsets[wrist_index]
+    sols = solve_analytic(kind, p, T_canon, signs, offsets, lower, upper, wrist_seed, tol, tol)
+    n = sols.shape[0]
+    d = np.empty(n)
+    for i in range(n):
+        acc = 0.0
+        for j in range(6):
+            acc += (sols[i, j] - seed[j]) ** 2
+        d[i] = acc
+    return sols[np.argsort(d, kind="mergesort")]

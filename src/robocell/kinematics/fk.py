@@ -30,9 +30,12 @@ class _TreeArgs:
         self.tree = t
 
     def joints_to(self, *links: int) -> NDArray[np.int64]:
+        if links in self._subsets:
+            return self._subsets[links]
         key = tuple(sorted(set(links)))
         if key not in self._subsets:
             self._subsets[key] = self.tree.joints_to(list(key))
+        self._subsets[links] = self._subsets[key]
         return self._subsets[key]
 
 
@@ -42,7 +45,9 @@ def tree_args(robot: RobotModel) -> _TreeArgs:
 
 
 def _link(group: JointGroup, link: str | None) -> tuple[RobotModel, int]:
-    robot = _robot(group)
+    robot = group.robot
+    if robot is None:
+        raise ModelError(f"group {group.name!r} is not attached to a robot model")
     name = link or group.tip_link
     if not name:
         raise ModelError(f"group {group.name!r} has no tip link; name the link to use")
@@ -86,12 +91,12 @@ def fk(
     robot's default positions). In the root frame, or in ``relative_to``'s frame if given.
     """
     robot, li = _link(group, link)
-    full = robot.full_positions(group, q, base_positions)
     args = tree_args(robot)
     if relative_to is None:
-        T = np.empty((args.n_links, 4, 4))
-        K.fk_into(full, args.joints_to(li), args.root, *args.arrays, T)
-        return T[li].copy()
+        base = robot.default_positions if base_positions is None else np.asarray(base_positions, float)
+        return K.fk_link(group.as_joint_vector(q), group.indices, base, args.joints_to(li),  # type: ignore[no-any-return]
+                         args.root, *args.arrays, args.n_links, li)  # fmt: skip
+    full = robot.full_positions(group, q, base_positions)
     ri = robot.link_index(relative_to)
     T = np.empty((args.n_links, 4, 4))
     K.fk_into(full, args.joints_to(li, ri), args.root, *args.arrays, T)

@@ -158,16 +158,11 @@ class AnalyticIK:
         """Every solution within limits, nearest the seed first (``max_solutions`` > 0 keeps
         only that many). ``rng`` and ``timeout`` are unused: the answer is immediate."""
         g = self.group
-        seed_q = g.default_positions.copy() if seed is None else seed
-        T_canon = self._T_canon_base @ T_base_tip @ self._T_tip_flange
-        wrist_seed = float(self._signs[3] * seed_q[3] - self._offsets[3])
-        if self.kind == 1:
-            wrist_seed = float(self._signs[5] * seed_q[5] - self._offsets[5])
-        sols = A.solve_analytic(
-            self.kind, self._p, T_canon, self._signs, self._offsets, g.lower, g.upper,
-            wrist_seed, 1e-7, 1e-7,
+        seed_q = g.default_positions if seed is None else seed
+        sols = A.solve_ordered(
+            self.kind, self._p, T_base_tip, self._T_canon_base, self._T_tip_flange, seed_q,
+            self._signs, self._offsets, g.lower, g.upper, 3 if self.kind == 0 else 5, 1e-7,
         )  # fmt: skip
-        sols = _order_by_seed(sols, seed_q)
         if max_solutions > 0:
             sols = sols[:max_solutions]
         reason = "" if len(sols) else "the pose is out of reach (or every solution is outside the joint limits)"

@@ -116,6 +116,15 @@ class JointGroup:
     def dof(self) -> int:
         return len(self.joint_names)
 
+    def __post_init__(self) -> None:
+        # Where the group's joints sit in a full variable vector: a slice when they are
+        # contiguous (cheaper to write through than an index array), else the indices.
+        idx = self.indices
+        self._dof = len(self.joint_names)
+        self.positions: slice | NDArray[np.int64] = idx
+        if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
+            self.positions = slice(int(idx[0]), int(idx[0]) + len(idx))
+
     def __repr__(self) -> str:
         return (
             f"JointGroup({self.name!r}, joints={self.joint_names}, "
@@ -133,6 +142,9 @@ class JointGroup:
 
     def as_joint_vector(self, q: ArrayLike, name: str = "joint values") -> NDArray[np.float64]:
         """``q`` as a (dof,) float array, or a :class:`ModelError` naming the problem."""
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._dof,):
+            if math.isfinite(sum(q.tolist())):  # fast path: a NaN or an infinity poisons the sum
+                return q
         try:
             arr = np.asarray(q, dtype=float)
         except (TypeError, ValueError) as exc:
@@ -525,8 +537,8 @@ class RobotModel:
         self, group: JointGroup, q: ArrayLike, base: ArrayLike | None = None
     ) -> NDArray[np.float64]:
         """The robot's full variable vector with the group's joints set to ``q``."""
-        full = np.array(self.default_positions if base is None else base, dtype=float)
-        full[group.indices] = group.as_joint_vector(q)
+        full = (self.default_positions if base is None else np.asarray(base, dtype=float)).copy()
+        full[group.positions] = group.as_joint_vector(q)
         return full
 
     def pin_configurations(self, full: ArrayLike) -> NDArray[np.float64]:
