@@ -3,7 +3,8 @@
 Prints one table per topic (medians; speeds as ratios against the baseline measured in the
 same run) and optionally writes JSON. Run from the repository root:
 
-    .venv/bin/python benchmarks/bench_foundation.py [--states 100000] [--poses 10000] [--json out.json]
+    .venv/bin/python benchmarks/bench_foundation.py [--states 100000] [--poses 10000] \
+        [--json out.json]
 
 Problems come from ../shared/bench/mbm (or $ROBOCELL_SHARED/bench/mbm).
 """
@@ -25,8 +26,15 @@ from robocell.kinematics import fk, fk_batch, ik_solver, pose_error
 from robocell.robot import RobotModel
 from robocell.scene import PlanningScene, load_scene
 
-SETS = ["table_pick", "table_under_pick", "box", "bookshelf_small", "bookshelf_tall",
-        "bookshelf_thin", "cage"]  # fmt: skip
+SETS = [
+    "table_pick",
+    "table_under_pick",
+    "box",
+    "bookshelf_small",
+    "bookshelf_tall",
+    "bookshelf_thin",
+    "cage",
+]
 
 
 def mbm_dir() -> Path:
@@ -69,9 +77,14 @@ def bench_fk(results: dict) -> None:
         batch.append(time.perf_counter() - t)
     batch_rate = len(qs) / statistics.median(batch)
     results["fk"] = {"single_us": single_us, "batch_per_s": batch_rate}
-    table("Forward kinematics (IRB 120, tool0)", ["measure", "value", "target"],
-          [["single call, median", f"{single_us:.2f} µs", "≤ 5 µs"],
-           ["batched, 100,000 configurations", f"{batch_rate:,.0f} /s", "≥ 500,000 /s"]])  # fmt: skip
+    table(
+        "Forward kinematics (IRB 120, tool0)",
+        ["measure", "value", "target"],
+        [
+            ["single call, median", f"{single_us:.2f} µs", "≤ 5 µs"],
+            ["batched, 100,000 configurations", f"{batch_rate:,.0f} /s", "≥ 500,000 /s"],
+        ],
+    )
 
 
 # ---------------------------------------------------------------------------------- IK
@@ -100,15 +113,42 @@ def bench_analytic(results: dict, n: int) -> None:
                 verified &= e[0] <= 1e-6 and e[1] <= 1e-6
         med = statistics.median(times) * 1e6
         results.setdefault("analytic_ik", {})[name] = {
-            "median_us": med, "success": ok / n, "verified": bool(verified),
-            "worst_pos_m": worst[0], "worst_rot_rad": worst[1], "mean_solutions": total_solutions / n}  # fmt: skip
-        rows.append([f"{name} ({solver.name})", n, f"{100 * ok / n:.2f} %", f"{med:.1f} µs",
-                     f"{total_solutions / n:.1f}", f"{worst[0]:.1e} m / {worst[1]:.1e} rad",
-                     "yes" if verified else "NO"])  # fmt: skip
-    table("Analytic IK (all solutions within limits; success = the sampled configuration is among them)",
-          ["robot (solver)", "poses", "success", "median per pose", "solutions/pose",
-           "worst FK error", "all verified ≤ 1e-6"], rows)  # fmt: skip
-    print("\nTargets: ≤ 50 µs per pose with all solutions; ≥ 99.9 % success; every solution verified by FK.")
+            "median_us": med,
+            "success": ok / n,
+            "verified": bool(verified),
+            "worst_pos_m": worst[0],
+            "worst_rot_rad": worst[1],
+            "mean_solutions": total_solutions / n,
+        }
+        rows.append(
+            [
+                f"{name} ({solver.name})",
+                n,
+                f"{100 * ok / n:.2f} %",
+                f"{med:.1f} µs",
+                f"{total_solutions / n:.1f}",
+                f"{worst[0]:.1e} m / {worst[1]:.1e} rad",
+                "yes" if verified else "NO",
+            ]
+        )
+    table(
+        "Analytic IK (all solutions within limits; "
+        "success = the sampled configuration is among them)",
+        [
+            "robot (solver)",
+            "poses",
+            "success",
+            "median per pose",
+            "solutions/pose",
+            "worst FK error",
+            "all verified ≤ 1e-6",
+        ],
+        rows,
+    )
+    print(
+        "\nTargets: ≤ 50 µs per pose with all solutions; ≥ 99.9 % success; "
+        "every solution verified by FK."
+    )
 
 
 def bench_numeric(results: dict, n: int) -> None:
@@ -131,10 +171,20 @@ def bench_numeric(results: dict, n: int) -> None:
                 ok += e[0] <= 1e-6 and e[1] <= 1e-6
         med = statistics.median(times) * 1e3
         p95 = float(np.percentile(times, 95)) * 1e3
-        results.setdefault("numeric_ik", {})[name] = {"success": ok / n, "median_ms": med, "p95_ms": p95}
-        rows.append([f"{name} {group}", n, f"{100 * ok / n:.2f} %", f"{med:.3f} ms", f"{p95:.3f} ms"])
-    table("Numeric IK (seed: the group's default; random restarts; 50 ms budget; tolerance 1e-6 m / 1e-6 rad)",
-          ["robot", "poses", "success", "median", "p95"], rows)  # fmt: skip
+        results.setdefault("numeric_ik", {})[name] = {
+            "success": ok / n,
+            "median_ms": med,
+            "p95_ms": p95,
+        }
+        rows.append(
+            [f"{name} {group}", n, f"{100 * ok / n:.2f} %", f"{med:.3f} ms", f"{p95:.3f} ms"]
+        )
+    table(
+        "Numeric IK (seed: the group's default; random restarts; 50 ms budget; "
+        "tolerance 1e-6 m / 1e-6 rad)",
+        ["robot", "poses", "success", "median", "p95"],
+        rows,
+    )
     print("\nTargets: ≥ 99.5 % success, median ≤ 1 ms (TRAC-IK: 99.2–99.9 % at 0.37 ms in C++).")
 
 
@@ -149,9 +199,17 @@ def sorting_cell_scene() -> PlanningScene:
     scene.add_box("conveyor", Pose((0.6, 0, 0.95)), (0.8, 2.4, 0.1))
     scene.add_box("target_table", Pose((-0.4, 0, 0.755 / 2)), (0.4, 1.3, 0.755))
     for color, y in (("red", 0.15), ("green", -0.15), ("blue", 0.45), ("yellow", -0.45)):
-        for k, (dx, dy, sx, sy) in enumerate(((0.145, 0, 0.01, 0.3), (-0.145, 0, 0.01, 0.3),
-                                              (0, 0.145, 0.3, 0.01), (0, -0.145, 0.3, 0.01))):  # fmt: skip
-            scene.add_shape(f"{color}_tray_wall{k}", Box((sx, sy, 0.10)), Pose((-0.4 + dx, y + dy, 0.805)))
+        for k, (dx, dy, sx, sy) in enumerate(
+            (
+                (0.145, 0, 0.01, 0.3),
+                (-0.145, 0, 0.01, 0.3),
+                (0, 0.145, 0.3, 0.01),
+                (0, -0.145, 0.3, 0.01),
+            )
+        ):
+            scene.add_shape(
+                f"{color}_tray_wall{k}", Box((sx, sy, 0.10)), Pose((-0.4 + dx, y + dy, 0.805))
+            )
         scene.add_shape(f"{color}_tray_floor", Box((0.3, 0.3, 0.005)), Pose((-0.4, y, 0.7575)))
     return scene
 
@@ -193,27 +251,62 @@ def bench_collision(results: dict, n: int, exact_n: int, which: str) -> None:
         exact_rate = exact_n / t_exact
         decided = float(np.mean(cls != 2))
         results.setdefault("collision", {})[label] = {
-            "states": n, "fast_per_s": rate, "sphere_level_per_s": n / t_spheres,
-            "exact_per_s": exact_rate, "ratio": rate / exact_rate, "decided_by_spheres": decided,
-            "colliding": float(exact_all.mean()), "free_but_exact_hit": free_but_hit,
-            "hit_but_exact_free": hit_but_free}  # fmt: skip
-        rows.append([label, f"{n:,}", f"{100 * exact_all.mean():.1f} %", f"{100 * decided:.1f} %",
-                     f"{n / t_spheres:,.0f}", f"{rate:,.0f}", f"{exact_rate:,.0f}",
-                     f"{rate / exact_rate:.1f}×", free_but_hit, hit_but_free])  # fmt: skip
-    table("Collision checking, random states in joint limits (2 cores)",
-          ["scene", "states", "in collision", "decided by spheres", "sphere level /s",
-           "two-level /s", "exact only /s", "speed-up", "free but exact hit", "hit but exact free"],
-          rows)  # fmt: skip
-    print("\nTargets: ≥ 200,000 states/s two-level; zero 'free but exact hit'. 'Hit but exact free' "
-          "counts states where inner spheres of two solids overlap but coal, which tests mesh "
-          "surfaces, finds no crossing (one body inside the other).")
+            "states": n,
+            "fast_per_s": rate,
+            "sphere_level_per_s": n / t_spheres,
+            "exact_per_s": exact_rate,
+            "ratio": rate / exact_rate,
+            "decided_by_spheres": decided,
+            "colliding": float(exact_all.mean()),
+            "free_but_exact_hit": free_but_hit,
+            "hit_but_exact_free": hit_but_free,
+        }
+        rows.append(
+            [
+                label,
+                f"{n:,}",
+                f"{100 * exact_all.mean():.1f} %",
+                f"{100 * decided:.1f} %",
+                f"{n / t_spheres:,.0f}",
+                f"{rate:,.0f}",
+                f"{exact_rate:,.0f}",
+                f"{rate / exact_rate:.1f}×",
+                free_but_hit,
+                hit_but_free,
+            ]
+        )
+    table(
+        "Collision checking, random states in joint limits (2 cores)",
+        [
+            "scene",
+            "states",
+            "in collision",
+            "decided by spheres",
+            "sphere level /s",
+            "two-level /s",
+            "exact only /s",
+            "speed-up",
+            "free but exact hit",
+            "hit but exact free",
+        ],
+        rows,
+    )
+    print(
+        "\nTargets: ≥ 200,000 states/s two-level; zero 'free but exact hit'. 'Hit but exact free' "
+        "counts states where inner spheres of two solids overlap but coal, which tests mesh "
+        "surfaces, finds no crossing (one body inside the other)."
+    )
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--states", type=int, default=100_000, help="random states per collision scene")
-    ap.add_argument("--exact-states", type=int, default=0,
-                    help="states timed on the exact-only path (default: all)")  # fmt: skip
+    ap.add_argument(
+        "--exact-states",
+        type=int,
+        default=0,
+        help="states timed on the exact-only path (default: all)",
+    )
     ap.add_argument("--poses", type=int, default=10_000, help="IK poses per robot")
     ap.add_argument("--only", choices=["fk", "ik", "numeric", "collision"], action="append")
     ap.add_argument("--scenes", choices=["all", "ur5", "irb120"], default="all")
@@ -221,7 +314,10 @@ def main() -> int:
     args = ap.parse_args()
     only = set(args.only or ["fk", "ik", "numeric", "collision"])
     results: dict = {}
-    print(f"# robocell foundation benchmark ({time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} cores)")
+    print(
+        f"# robocell foundation benchmark ({time.strftime('%Y-%m-%d %H:%M')}, "
+        f"{os.cpu_count()} cores)"
+    )
     if "fk" in only:
         bench_fk(results)
     if "ik" in only:

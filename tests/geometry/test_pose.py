@@ -21,7 +21,9 @@ def test_rpy_is_static_xyz():
 def test_rpy_and_quaternion_round_trips():
     rng = np.random.default_rng(0)
     for _ in range(200):
-        rpy = rng.uniform([-math.pi, -math.pi / 2 + 1e-3, -math.pi], [math.pi, math.pi / 2 - 1e-3, math.pi])
+        rpy = rng.uniform(
+            [-math.pi, -math.pi / 2 + 1e-3, -math.pi], [math.pi, math.pi / 2 - 1e-3, math.pi]
+        )
         R = rpy_to_matrix(*rpy)
         assert np.allclose(matrix_to_rpy(R), rpy, atol=1e-9)
         q = matrix_to_quat(R)
@@ -48,7 +50,9 @@ def test_pose_normalizes_and_reads_forms():
     p = Pose((1, 2, 3), (0, 0, 2, 0))
     assert np.allclose(p.orientation, [0, 0, 1, 0])
     assert Pose.from_any([1, 2, 3]).isclose(Pose((1, 2, 3)))
-    assert Pose.from_any({"position": [1, 0, 0], "orientation": [0, 0, 0, 1]}).isclose(Pose((1, 0, 0)))
+    assert Pose.from_any({"position": [1, 0, 0], "orientation": [0, 0, 0, 1]}).isclose(
+        Pose((1, 0, 0))
+    )
     assert Pose.from_any([0, 0, 0, 0, 0, 0, 1]).isclose(Pose())
 
 

@@ -7,9 +7,17 @@ from robocell.errors import GeometryError
 from robocell.geometry import Box, Cylinder, Mesh, Sphere, triangulate
 
 
-@pytest.mark.parametrize("make", [lambda: Box((1, 0, 1)), lambda: Box((1, -2, 1)),
-                                  lambda: Cylinder(0.1, 0), lambda: Cylinder(math.nan, 1),
-                                  lambda: Sphere(-1), lambda: Box((1, 1))])  # fmt: skip
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: Box((1, 0, 1)),
+        lambda: Box((1, -2, 1)),
+        lambda: Cylinder(0.1, 0),
+        lambda: Cylinder(math.nan, 1),
+        lambda: Sphere(-1),
+        lambda: Box((1, 1)),
+    ],
+)
 def test_non_positive_or_malformed_sizes_raise(make):
     with pytest.raises(GeometryError):
         make()

@@ -23,8 +23,15 @@ def test_ur5e_known_pose(ur5e):
     assert np.allclose(T[:3, 3], [-0.425 - 0.3922, -0.1333 - 0.0996, 0.1625 - 0.0997])
 
 
-@pytest.mark.parametrize("robot_name, group", [("irb120", "arm"), ("ur5e", "manipulator"),
-                                               ("mbm_ur5", "manipulator"), ("mbm_panda", "panda_arm")])  # fmt: skip
+@pytest.mark.parametrize(
+    "robot_name, group",
+    [
+        ("irb120", "arm"),
+        ("ur5e", "manipulator"),
+        ("mbm_ur5", "manipulator"),
+        ("mbm_panda", "panda_arm"),
+    ],
+)
 def test_fk_matches_pinocchio(request, robot_name, group):
     robot = request.getfixturevalue(robot_name)
     g = robot.group(group)
@@ -37,7 +44,9 @@ def test_fk_matches_pinocchio(request, robot_name, group):
         pin.framesForwardKinematics(robot.pin_model, data, robot.pin_configurations(full)[0])
         for name in robot.link_names:
             fid = robot.pin_model.getFrameId(name, pin.BODY)
-            assert np.allclose(ours[robot.link_index(name)], data.oMf[fid].homogeneous, atol=1e-12), name
+            assert np.allclose(
+                ours[robot.link_index(name)], data.oMf[fid].homogeneous, atol=1e-12
+            ), name
 
 
 def test_batch_equals_single(irb120):
@@ -52,9 +61,15 @@ def test_batch_equals_single(irb120):
     assert np.allclose(all_links[:, irb120.link_index("tcp")], batch)
 
 
-@pytest.mark.parametrize("robot_name, group, link", [("irb120", "arm", "tcp"), ("ur5e", "manipulator", "tool0"),
-                                                     ("mbm_panda", "panda_arm", "panda_link8"),
-                                                     ("irb120", "arm_with_gripper", "gripper_left_finger")])  # fmt: skip
+@pytest.mark.parametrize(
+    "robot_name, group, link",
+    [
+        ("irb120", "arm", "tcp"),
+        ("ur5e", "manipulator", "tool0"),
+        ("mbm_panda", "panda_arm", "panda_link8"),
+        ("irb120", "arm_with_gripper", "gripper_left_finger"),
+    ],
+)
 def test_jacobian_matches_finite_differences(request, robot_name, group, link):
     robot = request.getfixturevalue(robot_name)
     g = robot.group(group)
@@ -79,7 +94,9 @@ def test_relative_frames(irb120):
     arm = irb120.group("arm")
     q = [0.1, 0.2, -0.3, 0.4, 0.5, -0.6]
     T_tool0_tcp = fk(arm, q, "tcp", relative_to="tool0")
-    assert np.allclose(T_tool0_tcp[:3, 3], [0.15, 0, 0]) and np.allclose(T_tool0_tcp[:3, :3], np.eye(3))
+    assert np.allclose(T_tool0_tcp[:3, 3], [0.15, 0, 0]) and np.allclose(
+        T_tool0_tcp[:3, :3], np.eye(3)
+    )
 
 
 def test_fk_rejects_bad_input(irb120):

@@ -46,9 +46,15 @@ def test_opw_round_trips_irb120(irb120):
 def test_opw_gives_eight_solutions_at_a_generic_pose(irb120):
     """With the joint limits opened to ±2π every branch is within reach: 8 solutions (each
     with its 2π wraps) that all reach the pose."""
-    arm = dataclasses.replace(irb120.group("arm"), lower=np.full(6, -2 * np.pi), upper=np.full(6, 2 * np.pi))
-    solver = AnalyticIK(arm, OPWParameters(0, -0.070, 0, 0.290, 0.270, 0.302, 0.072,
-                                           offsets=(0, 0, -np.pi / 2, 0, 0, 0)))  # fmt: skip
+    arm = dataclasses.replace(
+        irb120.group("arm"), lower=np.full(6, -2 * np.pi), upper=np.full(6, 2 * np.pi)
+    )
+    solver = AnalyticIK(
+        arm,
+        OPWParameters(
+            0, -0.070, 0, 0.290, 0.270, 0.302, 0.072, offsets=(0, 0, -np.pi / 2, 0, 0, 0)
+        ),
+    )
     T = fk(arm, [0.3, 0.2, -0.4, 0.5, 0.6, 0.7], relative_to="base_link")
     sols = solver.solve(T).solutions
     assert all(max(pose_error(fk(arm, s, relative_to="base_link"), T)) < 1e-6 for s in sols)
@@ -80,11 +86,17 @@ def test_ur_closed_form_on_the_mbm_ur5(mbm_ur5):
 
 def test_wrong_parameters_are_refused(irb120):
     with pytest.raises(ModelError, match="do not describe group 'arm'"):
-        AnalyticIK(irb120.group("arm"), OPWParameters(0, -0.07, 0, 0.3, 0.27, 0.302, 0.072,
-                                                      offsets=(0, 0, -np.pi / 2, 0, 0, 0)))  # fmt: skip
+        AnalyticIK(
+            irb120.group("arm"),
+            OPWParameters(
+                0, -0.07, 0, 0.3, 0.27, 0.302, 0.072, offsets=(0, 0, -np.pi / 2, 0, 0, 0)
+            ),
+        )
 
 
-@pytest.mark.parametrize("robot_name, group", [("mbm_ur5", "manipulator"), ("mbm_panda", "panda_arm")])
+@pytest.mark.parametrize(
+    "robot_name, group", [("mbm_ur5", "manipulator"), ("mbm_panda", "panda_arm")]
+)
 def test_numeric_ik_round_trips(request, robot_name, group):
     robot = request.getfixturevalue(robot_name)
     g = robot.group(group)

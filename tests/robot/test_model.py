@@ -48,7 +48,9 @@ def test_gripper_value_drives_both_fingers_linearly(irb120):
 def test_ur5e_matches_the_spec(ur5e):
     arm = ur5e.group("manipulator")
     assert arm.dof == 6 and arm.tip_link == "tool0"
-    assert np.allclose(arm.upper, [2 * math.pi, 2 * math.pi, math.pi, 2 * math.pi, 2 * math.pi, 2 * math.pi])
+    assert np.allclose(
+        arm.upper, [2 * math.pi, 2 * math.pi, math.pi, 2 * math.pi, 2 * math.pi, 2 * math.pi]
+    )
     assert np.allclose(arm.velocity, math.pi)
     grip = ur5e.group("gripper")
     assert (grip.lower[0], grip.upper[0]) == (0.0, 0.04)
@@ -81,7 +83,9 @@ def test_state_and_group_positions(irb120):
 
 
 def test_unknown_names_list_the_valid_ones(irb120):
-    with pytest.raises(ModelError, match=r"unknown group 'armm'; known: arm, arm_with_gripper, gripper"):
+    with pytest.raises(
+        ModelError, match=r"unknown group 'armm'; known: arm, arm_with_gripper, gripper"
+    ):
         irb120.group("armm")
     with pytest.raises(ModelError, match="unknown named state 'hom' of group 'arm'; known: home"):
         irb120.group("arm").named("hom")
@@ -92,7 +96,8 @@ def test_unknown_names_list_the_valid_ones(irb120):
 
 
 URDF = """<robot name="two">
-  <link name="base"/><link name="a"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  <link name="base"/>
+  <link name="a"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
   <link name="b"/>
   <joint name="j1" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>
     <limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
@@ -100,7 +105,8 @@ URDF = """<robot name="two">
     <axis xyz="1 0 0"/><limit lower="0" upper="0.2" velocity="1" effort="1"/></joint>
 </robot>"""
 SRDF = """<robot name="two"><group name="g"><chain base_link="base" tip_link="b"/></group>
-  <group_state name="out" group="g"><joint name="j1" value="0.5"/><joint name="j2" value="0.1"/></group_state>
+  <group_state name="out" group="g">
+    <joint name="j1" value="0.5"/><joint name="j2" value="0.1"/></group_state>
 </robot>"""
 
 
@@ -118,11 +124,19 @@ def test_urdf_and_srdf_from_text():
     [
         ("<robot", "not valid XML"),
         ("<robt name='x'/>", "expected <robot>"),
-        (URDF.replace('<child link="b"/>', '<child link="c"/>'), "unknown link 'c'; known: a, b, base"),
+        (
+            URDF.replace('<child link="b"/>', '<child link="c"/>'),
+            "unknown link 'c'; known: a, b, base",
+        ),
         (URDF.replace('type="prismatic"', 'type="planar"'), "supported: revolute, continuous"),
-        (URDF.replace('<box size="0.1 0.1 0.1"/>', '<mesh filename="package://nowhere/x.stl"/>'),
-         "mesh 'package://nowhere/x.stl' not found"),
-        (URDF.replace('lower="-1" upper="1"', 'lower="1" upper="-1"'), "lower limit 1.0 > upper -1.0"),
+        (
+            URDF.replace('<box size="0.1 0.1 0.1"/>', '<mesh filename="package://nowhere/x.stl"/>'),
+            "mesh 'package://nowhere/x.stl' not found",
+        ),
+        (
+            URDF.replace('lower="-1" upper="1"', 'lower="1" upper="-1"'),
+            "lower limit 1.0 > upper -1.0",
+        ),
         (URDF.replace('<origin xyz="0.5 0 0"/>', '<origin xyz="0.5 0 nan"/>'), "finite numbers"),
     ],
 )
@@ -136,12 +150,22 @@ def test_bad_urdf_raises_model_error(urdf, words):
     "srdf, words",
     [
         (SRDF.replace('tip_link="b"', 'tip_link="x"'), "unknown link 'x'"),
-        (SRDF.replace('<joint name="j2" value="0.1"/>', '<joint name="j9" value="0.1"/>'),
-         "unknown joint 'j9'"),
-        ("<robot name='two'><group name='g'><group name='h'/></group></robot>", "unknown subgroup 'h'"),
-        ("<robot name='two'><end_effector name='e' parent_link='b' group='nope'/></robot>",
-         "unknown group 'nope'"),
-        ("<robot name='two'><disable_collisions link1='a' link2='zz'/></robot>", "unknown link 'zz'"),
+        (
+            SRDF.replace('<joint name="j2" value="0.1"/>', '<joint name="j9" value="0.1"/>'),
+            "unknown joint 'j9'",
+        ),
+        (
+            "<robot name='two'><group name='g'><group name='h'/></group></robot>",
+            "unknown subgroup 'h'",
+        ),
+        (
+            "<robot name='two'><end_effector name='e' parent_link='b' group='nope'/></robot>",
+            "unknown group 'nope'",
+        ),
+        (
+            "<robot name='two'><disable_collisions link1='a' link2='zz'/></robot>",
+            "unknown link 'zz'",
+        ),
     ],
 )
 def test_bad_srdf_raises_model_error(srdf, words):

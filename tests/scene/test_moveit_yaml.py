@@ -5,8 +5,15 @@ from robocell.errors import SceneError
 from robocell.scene import PlanningScene, load_request, load_scene, save_scene
 from tests.conftest import mbm_dir
 
-SETS = ["table_pick", "table_under_pick", "box", "bookshelf_small", "bookshelf_tall",
-        "bookshelf_thin", "cage"]  # fmt: skip
+SETS = [
+    "table_pick",
+    "table_under_pick",
+    "box",
+    "bookshelf_small",
+    "bookshelf_tall",
+    "bookshelf_thin",
+    "cage",
+]
 
 
 @pytest.mark.parametrize("robot_name, short", [("mbm_ur5", "ur5"), ("mbm_panda", "panda")])
@@ -51,9 +58,13 @@ def test_export_round_trip(tmp_path, mbm_ur5):
 
 def test_bad_files(tmp_path, mbm_ur5):
     bad = tmp_path / "bad.yaml"
-    bad.write_text("world: {collision_objects: [{id: a, primitives: [{type: cone, dimensions: [1]}], "
-                   "primitive_poses: [{position: [0, 0, 0], orientation: [0, 0, 0, 1]}]}]}")  # fmt: skip
-    with pytest.raises(SceneError, match="unknown primitive type 'cone'; known: box, cylinder, sphere"):
+    bad.write_text(
+        "world: {collision_objects: [{id: a, primitives: [{type: cone, dimensions: [1]}], "
+        "primitive_poses: [{position: [0, 0, 0], orientation: [0, 0, 0, 1]}]}]}"
+    )
+    with pytest.raises(
+        SceneError, match="unknown primitive type 'cone'; known: box, cylinder, sphere"
+    ):
         load_scene(mbm_ur5, bad)
     bad.write_text("robot_state: {joint_state: {name: [elbo_joint], position: [0]}}")
     with pytest.raises(SceneError, match="unknown joint 'elbo_joint'"):
@@ -69,9 +80,11 @@ def test_failed_load_leaves_the_scene_alone(tmp_path, mbm_ur5):
     scene = PlanningScene(mbm_ur5)
     scene.add_box("keep", [0, 0, -1], (1, 1, 0.1))
     bad = tmp_path / "bad.yaml"
-    bad.write_text("world: {collision_objects: [{id: ok, primitives: [{type: box, dimensions: [1, 1, 1]}], "
-                   "primitive_poses: [{position: [0, 0, 2]}]}, {id: keep, primitives: [{type: sphere, "
-                   "dimensions: [1]}], primitive_poses: [{position: [0, 0, 0]}]}]}")  # fmt: skip
+    bad.write_text(
+        "world: {collision_objects: [{id: ok, primitives: [{type: box, dimensions: [1, 1, 1]}], "
+        "primitive_poses: [{position: [0, 0, 2]}]}, {id: keep, primitives: [{type: sphere, "
+        "dimensions: [1]}], primitive_poses: [{position: [0, 0, 0]}]}]}"
+    )
     with pytest.raises(SceneError, match="already exists"):
         load_scene(mbm_ur5, bad, scene)
     assert scene.object_ids == ["keep"]

@@ -38,15 +38,31 @@ def test_add_move_remove(scene):
         (lambda s: s.add_box("x", Pose(), (1, -1, 1)), GeometryError, "positive"),
         (lambda s: s.add_box("x", Pose((0, 0, np.nan)), (1, 1, 1)), GeometryError, "NaN"),
         (lambda s: s.add_sphere("link_1", Pose(), 0.1), SceneError, "robot link"),
-        (lambda s: s.move_object("tabel", Pose()), SceneError, "unknown object 'tabel'; known: can, table"),
+        (
+            lambda s: s.move_object("tabel", Pose()),
+            SceneError,
+            "unknown object 'tabel'; known: can, table",
+        ),
         (lambda s: s.remove_object("cann"), SceneError, "known: can, table"),
         (lambda s: s.detach_object("can"), SceneError, "not attached; attached: \\(none\\)"),
-        (lambda s: s.attach_object("can", "gripper_palm"), ModelError, "unknown link 'gripper_palm'"),
+        (
+            lambda s: s.attach_object("can", "gripper_palm"),
+            ModelError,
+            "unknown link 'gripper_palm'",
+        ),
         (lambda s: s.attach_object("can", "tool0", ["fingr"]), ModelError, "unknown link 'fingr'"),
-        (lambda s: s.set_joint_positions("arm", [0, 0, 3.0, 0, 0, 0]), SceneError, "joint_3=3.0000 not in"),
+        (
+            lambda s: s.set_joint_positions("arm", [0, 0, 3.0, 0, 0, 0]),
+            SceneError,
+            "joint_3=3.0000 not in",
+        ),
         (lambda s: s.set_joint_positions("arm", [0, 0]), ModelError, "must have 6 entries"),
         (lambda s: s.allow_collision("can", "tabel"), SceneError, "unknown link or object 'tabel'"),
-        (lambda s: s.add_object(CollisionObject("bad id!", (Box((1, 1, 1)),), (Pose(),))), SceneError, "not valid"),
+        (
+            lambda s: s.add_object(CollisionObject("bad id!", (Box((1, 1, 1)),), (Pose(),))),
+            SceneError,
+            "not valid",
+        ),
     ],
 )
 def test_bad_operations_raise_and_change_nothing(scene, action, error, words):
@@ -89,7 +105,10 @@ def test_held_object_collides_with_world_and_robot(irb120):
     assert not scene.in_collision()
     # a floor whose top is 1 cm above the bar's lower end
     scene.add_box("floor", Pose(T_tcp[:3, 3] - [0, 0, 0.2 + 0.05 - 0.01]), (0.3, 0.3, 0.1))
-    assert ("bar", "floor") in scene.colliding_pairs() or ("floor", "bar") in scene.colliding_pairs()
+    assert ("bar", "floor") in scene.colliding_pairs() or (
+        "floor",
+        "bar",
+    ) in scene.colliding_pairs()
     scene.allow_collision("bar", "floor")
     assert not scene.in_collision()
 
@@ -109,7 +128,11 @@ def test_colliding_pairs_and_distance(scene, irb120):
 
 def test_acm_allows_and_forbids(scene, irb120):
     down = np.array([0.0, 1.2, 0.3, 0.0, 0.0, 0.0])
-    links = [p[0] if p[1] == "table" else p[1] for p in scene.colliding_pairs(down, "arm") if "table" in p]
+    links = [
+        p[0] if p[1] == "table" else p[1]
+        for p in scene.colliding_pairs(down, "arm")
+        if "table" in p
+    ]
     for link in links:
         scene.allow_collision(link, "table")
     assert not any("table" in p for p in scene.colliding_pairs(down, "arm"))

@@ -43,7 +43,10 @@ def test_mesh_leaves_cover_the_surface():
     P = tri[k, 0] + u[:, :1] * (tri[k, 1] - tri[k, 0]) + u[:, 1:] * (tri[k, 2] - tri[k, 0])
     assert _covered(tree, P).all()
     assert len(tree.inner) > 0  # a closed mesh has spheres inside
-    assert np.all(np.hypot(tree.inner[:, 0] - 0.1, tree.inner[:, 1]) + tree.inner[:, 3] <= 0.05 / np.cos(np.pi / 40) + 1e-9)
+    assert np.all(
+        np.hypot(tree.inner[:, 0] - 0.1, tree.inner[:, 1]) + tree.inner[:, 3]
+        <= 0.05 / np.cos(np.pi / 40) + 1e-9
+    )
 
 
 def test_every_node_contains_the_leaves_below_it():
@@ -51,4 +54,6 @@ def test_every_node_contains_the_leaves_below_it():
     for i in np.flatnonzero(tree.left >= 0)[:300]:
         lv = _leaves_of(tree, int(i))
         n = tree.nodes[i]
-        assert np.all(np.linalg.norm(tree.nodes[lv, :3] - n[:3], axis=1) + tree.nodes[lv, 3] <= n[3] + 1e-9)
+        assert np.all(
+            np.linalg.norm(tree.nodes[lv, :3] - n[:3], axis=1) + tree.nodes[lv, 3] <= n[3] + 1e-9
+        )

@@ -60,8 +60,16 @@ def check_robot(name: str, n_poses: int = 20, seed: int = 0) -> CheckResult:
     hit = scene.in_collision(home, arm)
     pairs = scene.colliding_pairs(home, arm)
     detail = f"home free: {free}; box at {arm.tip_link} collides: {hit} ({len(pairs)} pairs)"
-    return CheckResult(name, ", ".join(f"{g}({robot.groups[g].dof})" for g in robot.groups),
-                       load_s, ik_solver(arm).name, ok, n_poses, free and hit, detail)  # fmt: skip
+    return CheckResult(
+        name,
+        ", ".join(f"{g}({robot.groups[g].dof})" for g in robot.groups),
+        load_s,
+        ik_solver(arm).name,
+        ok,
+        n_poses,
+        free and hit,
+        detail,
+    )
 
 
 def run_info() -> int:
@@ -69,12 +77,20 @@ def run_info() -> int:
     results = []
     for name in bundled_robots():
         results.append(check_robot(name))
-    print(f"{'robot':<20} {'groups (dof)':<40} {'load s':>7} {'IK':>6} {'IK round trips':>15}  collision")
+    print(
+        f"{'robot':<20} {'groups (dof)':<40} {'load s':>7} {'IK':>6} "
+        f"{'IK round trips':>15}  collision"
+    )
     for r in results:
-        print(f"{r.robot:<20} {r.groups:<40} {r.load_s:>7.2f} {r.ik_solver:>6} "
-              f"{r.ik_ok:>7}/{r.ik_total:<7}  {'ok' if r.collision_ok else 'FAIL'}: {r.detail}")  # fmt: skip
+        print(
+            f"{r.robot:<20} {r.groups:<40} {r.load_s:>7.2f} {r.ik_solver:>6} "
+            f"{r.ik_ok:>7}/{r.ik_total:<7}  {'ok' if r.collision_ok else 'FAIL'}: {r.detail}"
+        )
     cells = bundled_cells()
     print(f"\ncells: {', '.join(cells) if cells else 'none bundled in this version'}")
     passed = all(r.passed for r in results)
-    print(f"\nself-check: {'PASS' if passed else 'FAIL'} ({sum(r.passed for r in results)}/{len(results)} robots)")
+    print(
+        f"\nself-check: {'PASS' if passed else 'FAIL'} "
+        f"({sum(r.passed for r in results)}/{len(results)} robots)"
+    )
     return 0 if passed else 1

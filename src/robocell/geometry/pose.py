@@ -130,7 +130,9 @@ def rotation_error(R_a: ArrayLike, R_b: ArrayLike) -> float:
     """Angle in [rad] of the rotation that takes ``R_a`` to ``R_b``."""
     R = np.asarray(R_a).T @ np.asarray(R_b)
     # atan2(sin, cos) keeps precision at small angles, where acos(cos) loses half the digits
-    s = 0.5 * math.sqrt((R[2, 1] - R[1, 2]) ** 2 + (R[0, 2] - R[2, 0]) ** 2 + (R[1, 0] - R[0, 1]) ** 2)
+    s = 0.5 * math.sqrt(
+        (R[2, 1] - R[1, 2]) ** 2 + (R[0, 2] - R[2, 0]) ** 2 + (R[1, 0] - R[0, 1]) ** 2
+    )
     c = (np.trace(R) - 1.0) / 2.0
     return math.atan2(s, c)
 

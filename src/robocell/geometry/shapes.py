@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -138,13 +139,13 @@ Shape = Box | Cylinder | Sphere | Mesh
 SHAPE_KINDS = ("box", "cylinder", "sphere", "mesh")
 
 
-def bvh_arrays(bvh: object) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+def bvh_arrays(bvh: Any) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Vertices (V, 3) and triangles (F, 3) of a coal BVH model."""
-    verts = np.array(bvh.vertices(), dtype=float)  # type: ignore[attr-defined]
-    n = bvh.num_tris  # type: ignore[attr-defined]
+    verts: NDArray[np.float64] = np.array(bvh.vertices(), dtype=np.float64)
+    n = bvh.num_tris
     tris = np.empty((n, 3), dtype=np.int64)
     for i in range(n):
-        t = bvh.tri_indices(i)  # type: ignore[attr-defined]
+        t = bvh.tri_indices(i)
         tris[i] = (t[0], t[1], t[2])
     return verts, tris
 
@@ -161,18 +162,33 @@ def triangulate(shape: Shape, segments: int = 24) -> tuple[NDArray[np.float64], 
         v = np.array(
             [[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
         )
-        f = [
-            [0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-            [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3],
-        ]  # fmt: skip
-        return v, np.array(f, dtype=np.int64)
+        faces = [
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
+        ]
+        return v, np.array(faces, dtype=np.int64)
     if isinstance(shape, Cylinder):
         r = shape.radius / math.cos(math.pi / segments)  # the polygon's edges touch the circle
         a = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
         ring = np.stack([r * np.cos(a), r * np.sin(a)], axis=1)
         h = 0.5 * shape.length
-        v = np.vstack([np.c_[ring, -h * np.ones(segments)], np.c_[ring, h * np.ones(segments)],
-                       [[0, 0, -h], [0, 0, h]]])  # fmt: skip
+        v = np.vstack(
+            [
+                np.c_[ring, -h * np.ones(segments)],
+                np.c_[ring, h * np.ones(segments)],
+                [[0, 0, -h], [0, 0, h]],
+            ]
+        )
         faces = []
         for i in range(segments):
             j = (i + 1) % segments
@@ -183,14 +199,46 @@ def triangulate(shape: Shape, segments: int = 24) -> tuple[NDArray[np.float64], 
         # an icosahedron scaled so that its faces lie outside the sphere
         t = (1 + math.sqrt(5)) / 2
         v = np.array(
-            [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
-             [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], float
-        )  # fmt: skip
+            [
+                [-1, t, 0],
+                [1, t, 0],
+                [-1, -t, 0],
+                [1, -t, 0],
+                [0, -1, t],
+                [0, 1, t],
+                [0, -1, -t],
+                [0, 1, -t],
+                [t, 0, -1],
+                [t, 0, 1],
+                [-t, 0, -1],
+                [-t, 0, 1],
+            ],
+            float,
+        )
         f = np.array(
-            [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
-             [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
-             [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]]
-        )  # fmt: skip
+            [
+                [0, 11, 5],
+                [0, 5, 1],
+                [0, 1, 7],
+                [0, 7, 10],
+                [0, 10, 11],
+                [1, 5, 9],
+                [5, 11, 4],
+                [11, 10, 2],
+                [10, 7, 6],
+                [7, 1, 8],
+                [3, 9, 4],
+                [3, 4, 2],
+                [3, 2, 6],
+                [3, 6, 8],
+                [3, 8, 9],
+                [4, 9, 5],
+                [2, 4, 11],
+                [6, 2, 10],
+                [8, 6, 7],
+                [9, 8, 1],
+            ]
+        )
         v /= np.linalg.norm(v[0])
         inradius = np.linalg.norm(v[f[0]].mean(axis=0))
         return v * shape.radius / inradius, f.astype(np.int64)

@@ -87,7 +87,9 @@ def fk_batch(qs, joints, root, parent, child, origin, jtype, axis, var, mult, of
 
 
 @njit(cache=True, parallel=True)
-def fk_batch_link(qs, joints, root, parent, child, origin, jtype, axis, var, mult, offset, n_links, link):  # type: ignore[no-untyped-def]
+def fk_batch_link(
+    qs, joints, root, parent, child, origin, jtype, axis, var, mult, offset, n_links, link
+):  # type: ignore[no-untyped-def]
     """(N, 4, 4) poses of one link for (N, V) full variable vectors."""
     N = qs.shape[0]
     out = np.empty((N, 4, 4))
@@ -203,8 +205,28 @@ def _pose_error(T_target, T_tip, e):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def numeric_ik(  # type: ignore[no-untyped-def]
-    T_target, q_full, group_idx, seeds, lower, upper, tip, joints, root, parent, child, origin,
-    jtype, axis, var, mult, offset, n_links, tol_pos, tol_rot, max_iter, position_only,
+    T_target,
+    q_full,
+    group_idx,
+    seeds,
+    lower,
+    upper,
+    tip,
+    joints,
+    root,
+    parent,
+    child,
+    origin,
+    jtype,
+    axis,
+    var,
+    mult,
+    offset,
+    n_links,
+    tol_pos,
+    tol_rot,
+    max_iter,
+    position_only,
 ):
     """Levenberg–Marquardt IK (Sugihara's damping λ = ½|e|² + ε) with restarts.
 
@@ -273,7 +295,23 @@ def numeric_ik(  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def fk_link(qg, group_idx, q_base, joints, root, parent, child, origin, jtype, axis, var, mult, offset, n_links, link):  # type: ignore[no-untyped-def]
+def fk_link(
+    qg,
+    group_idx,
+    q_base,
+    joints,
+    root,
+    parent,
+    child,
+    origin,
+    jtype,
+    axis,
+    var,
+    mult,
+    offset,
+    n_links,
+    link,
+):  # type: ignore[no-untyped-def]
     """Pose (4, 4) of one link for group joint values qg (other joints at q_base)."""
     q = q_base.copy()
     for i in range(group_idx.shape[0]):

@@ -281,9 +281,7 @@ def ur_ik(p, T, wrist_seed):  # type: ignore[no-untyped-def]
             c3 = min(1.0, max(-1.0, c3))
             for i3 in range(2):
                 q3 = math.acos(c3) if i3 == 0 else -math.acos(c3)
-                q2 = -math.atan2(py, -px) + math.asin(
-                    max(-1.0, min(1.0, a3 * math.sin(q3) / norm))
-                )
+                q2 = -math.atan2(py, -px) + math.asin(max(-1.0, min(1.0, a3 * math.sin(q3) / norm)))
                 T13 = _mm(_dh(q2, 0.0, a2, 0.0), _dh(q3, 0.0, a3, 0.0))
                 T34 = _mm(_inv(T13), T14)
                 q4 = math.atan2(T34[1, 0], T34[0, 0])
@@ -390,7 +388,20 @@ def solve_analytic(kind, p, T_canon, signs, offsets, lower, upper, wrist_seed, t
 
 
 @njit(cache=True)
-def solve_ordered(kind, p, T_base_tip, T_canon_base, T_tip_flange, seed, signs, offsets, lower, upper, wrist_index, tol):  # type: ignore[no-untyped-def]
+def solve_ordered(
+    kind,
+    p,
+    T_base_tip,
+    T_canon_base,
+    T_tip_flange,
+    seed,
+    signs,
+    offsets,
+    lower,
+    upper,
+    wrist_index,
+    tol,
+):  # type: ignore[no-untyped-def]
     """:func:`solve_analytic` for a target in the URDF base frame, solutions ordered by their
     distance to ``seed``."""
     T_canon = _mm(_mm(T_canon_base, T_base_tip), T_tip_flange)

@@ -23,7 +23,16 @@ class _TreeArgs:
     def __init__(self, robot: RobotModel) -> None:
         t = robot.tree
         self.root = robot.link_index(robot.root_link)
-        self.arrays = (t.parent_link, t.child_link, t.origin, t.type, t.axis, t.var, t.mult, t.offset)
+        self.arrays = (
+            t.parent_link,
+            t.child_link,
+            t.origin,
+            t.type,
+            t.axis,
+            t.var,
+            t.mult,
+            t.offset,
+        )
         self.n_links = t.n_links
         self.all_joints = np.arange(len(t.parent_link), dtype=np.int64)
         self._subsets: dict[tuple[int, ...], NDArray[np.int64]] = {}
@@ -93,9 +102,19 @@ def fk(
     robot, li = _link(group, link)
     args = tree_args(robot)
     if relative_to is None:
-        base = robot.default_positions if base_positions is None else np.asarray(base_positions, float)
-        return K.fk_link(group.as_joint_vector(q), group.indices, base, args.joints_to(li),  # type: ignore[no-any-return]
-                         args.root, *args.arrays, args.n_links, li)  # fmt: skip
+        base = (
+            robot.default_positions if base_positions is None else np.asarray(base_positions, float)
+        )
+        return K.fk_link(
+            group.as_joint_vector(q),
+            group.indices,
+            base,
+            args.joints_to(li),  # type: ignore[no-any-return]
+            args.root,
+            *args.arrays,
+            args.n_links,
+            li,
+        )
     full = robot.full_positions(group, q, base_positions)
     ri = robot.link_index(relative_to)
     T = np.empty((args.n_links, 4, 4))
@@ -139,5 +158,7 @@ def jacobian(
     column[group.indices] = np.arange(group.dof)
     J = np.empty((6, group.dof))
     t = robot.tree
-    K.jacobian_into(T, joints, t.parent_link, t.origin, t.type, t.axis, t.var, t.mult, column, li, J)
+    K.jacobian_into(
+        T, joints, t.parent_link, t.origin, t.type, t.axis, t.var, t.mult, column, li, J
+    )
     return J

@@ -160,12 +160,26 @@ class AnalyticIK:
         g = self.group
         seed_q = g.default_positions if seed is None else seed
         sols = A.solve_ordered(
-            self.kind, self._p, T_base_tip, self._T_canon_base, self._T_tip_flange, seed_q,
-            self._signs, self._offsets, g.lower, g.upper, 3 if self.kind == 0 else 5, 1e-7,
-        )  # fmt: skip
+            self.kind,
+            self._p,
+            T_base_tip,
+            self._T_canon_base,
+            self._T_tip_flange,
+            seed_q,
+            self._signs,
+            self._offsets,
+            g.lower,
+            g.upper,
+            3 if self.kind == 0 else 5,
+            1e-7,
+        )
         if max_solutions > 0:
             sols = sols[:max_solutions]
-        reason = "" if len(sols) else "the pose is out of reach (or every solution is outside the joint limits)"
+        reason = (
+            ""
+            if len(sols)
+            else "the pose is out of reach (or every solution is outside the joint limits)"
+        )
         return IKResult(sols, self.name, reason, 1)
 
 
@@ -205,13 +219,17 @@ class NumericIK:
         self._tip = robot.link_index(self.tip_link)
         self._base = robot.link_index(group.base_link) if group.base_link else None
         self._args = tree_args(robot)
-        self._joints = self._args.joints_to(self._tip, *([self._base] if self._base is not None else []))
+        self._joints = self._args.joints_to(
+            self._tip, *([self._base] if self._base is not None else [])
+        )
         self.set_base_positions(base_positions)
 
     def set_base_positions(self, base_positions: ArrayLike | None) -> None:
         """Values of the joints outside the group (they fix where the base is)."""
         r = self.robot
-        self._full = np.array(r.default_positions if base_positions is None else base_positions, float)
+        self._full = np.array(
+            r.default_positions if base_positions is None else base_positions, float
+        )
         if self._base is None:
             self._T_root_base = np.eye(4)
         else:
@@ -242,17 +260,31 @@ class NumericIK:
                 seeds[0] = seed_q
                 first = False
             q, ok, used, _ = K.numeric_ik(
-                T_target, self._full, g.indices, seeds, g.lower, g.upper, self._tip,
-                self._joints, self._args.root, *self._args.arrays, self._args.n_links,
-                c.tol_pos, c.tol_rot, c.max_iter, c.position_only,
-            )  # fmt: skip
+                T_target,
+                self._full,
+                g.indices,
+                seeds,
+                g.lower,
+                g.upper,
+                self._tip,
+                self._joints,
+                self._args.root,
+                *self._args.arrays,
+                self._args.n_links,
+                c.tol_pos,
+                c.tol_rot,
+                c.max_iter,
+                c.position_only,
+            )
             attempts += int(used)
             if ok and not any(np.allclose(q, f, atol=1e-4) for f in found):
                 found.append(q)
             if len(found) >= max_solutions or time.perf_counter() > deadline:
                 break
         sols = _order_by_seed(np.array(found).reshape(-1, g.dof), seed_q)
-        reason = "" if found else f"no solution found in {timeout * 1e3:.0f} ms ({attempts} attempts)"
+        reason = (
+            "" if found else f"no solution found in {timeout * 1e3:.0f} ms ({attempts} attempts)"
+        )
         return IKResult(sols, self.name, reason, attempts)
 
 
@@ -327,10 +359,18 @@ def solve_ik(
                 if more.success:
                     kept = more.solutions[~checker.check(more.solutions)]
             if len(kept) == 0:
-                return IKResult(kept, result.solver, "the pose is reachable but every solution "
-                                "found is in collision", result.attempts)  # fmt: skip
-            result = IKResult(_order_by_seed(kept, seed_q if seed_q is not None else kept[0]),
-                              result.solver, "", result.attempts)  # fmt: skip
+                return IKResult(
+                    kept,
+                    result.solver,
+                    "the pose is reachable but every solution found is in collision",
+                    result.attempts,
+                )
+            result = IKResult(
+                _order_by_seed(kept, seed_q if seed_q is not None else kept[0]),
+                result.solver,
+                "",
+                result.attempts,
+            )
         return result
     result = solver.solve(T, seed_q, gen, timeout, 0)
     sols = result.solutions
@@ -338,8 +378,12 @@ def solve_ik(
         assert checker is not None
         sols = sols[~checker.check(sols)]
         if len(sols) == 0:
-            return IKResult(sols, result.solver, "the pose is reachable but all "
-                            f"{len(result.solutions)} solutions are in collision", 1)  # fmt: skip
+            return IKResult(
+                sols,
+                result.solver,
+                f"the pose is reachable but all {len(result.solutions)} solutions are in collision",
+                1,
+            )
     if max_solutions > 0:
         sols = sols[:max_solutions]
     return IKResult(sols, result.solver, result.reason, 1)

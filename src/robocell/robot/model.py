@@ -319,7 +319,9 @@ class RobotModel:
                 if spec.get(f"has_{key}_limits", f"max_{key}" in spec) and f"max_{key}" in spec:
                     value = float(spec[f"max_{key}"])
                     if not value > 0:
-                        raise ModelError(f"joint limits: {jname} max_{key} must be > 0, got {value}")
+                        raise ModelError(
+                            f"joint limits: {jname} max_{key} must be > 0, got {value}"
+                        )
                     arr[i] = value
             if spec.get("has_position_limits"):
                 self.lower[i] = float(spec.get("min_position", self.lower[i]))
@@ -377,7 +379,9 @@ class RobotModel:
         for jid in range(1, self.pin_model.njoints):
             jm = self.pin_model.joints[jid]
             k = by_name[self.pin_model.names[jid]]
-            rows.append((jm.idx_q, jm.nq, int(self.tree.var[k]), self.tree.mult[k], self.tree.offset[k]))
+            rows.append(
+                (jm.idx_q, jm.nq, int(self.tree.var[k]), self.tree.mult[k], self.tree.offset[k])
+            )
         self._pin_rows = rows
         self.pin_nq = self.pin_model.nq
 
@@ -387,7 +391,9 @@ class RobotModel:
             frame = self.pin_model.frames[g.parentFrame]
             link = frame.name
             if link not in self._link_index:
-                raise ModelError(f"{self.source}: geometry {g.name!r} hangs on unknown frame {link!r}")
+                raise ModelError(
+                    f"{self.source}: geometry {g.name!r} hangs on unknown frame {link!r}"
+                )
             T_joint_link = frame.placement.homogeneous
             T_link_shape = invert_transform(T_joint_link) @ g.placement.homogeneous
             shape = _shape_of(g.geometry, g.meshPath, np.asarray(g.meshScale))
@@ -478,8 +484,7 @@ class RobotModel:
                     q[active.index(jn)] = v
                 elif jn not in [j.name for j in self.urdf.joints]:
                     raise ModelError(
-                        f"group_state {sname!r} of group {name!r}: "
-                        + unknown("joint", jn, active)
+                        f"group_state {sname!r} of group {name!r}: " + unknown("joint", jn, active)
                     )
             group.named_states[sname] = q
         return group
@@ -504,8 +509,12 @@ class RobotModel:
     def _add_end_effector(self, ee: EndEffectorSpec) -> None:
         self.link_index(ee.parent_link, f"end_effector {ee.name!r} parent_link")
         if ee.group not in self.groups:
-            raise ModelError(f"end_effector {ee.name!r}: " + unknown("group", ee.group, self.groups))
-        self.end_effectors[ee.name] = EndEffector(ee.name, ee.parent_link, ee.group, ee.parent_group)
+            raise ModelError(
+                f"end_effector {ee.name!r}: " + unknown("group", ee.group, self.groups)
+            )
+        self.end_effectors[ee.name] = EndEffector(
+            ee.name, ee.parent_link, ee.group, ee.parent_group
+        )
 
     # ------------------------------------------------------------------ queries
     @property

@@ -22,7 +22,8 @@ JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
 
 @dataclass
 class JointInfo:
-    """One URDF joint. ``origin`` is T_parent_joint (4×4); ``axis`` a unit vector in the joint frame."""
+    """One URDF joint. ``origin`` is T_parent_joint (4×4); ``axis`` is a unit vector in the
+    joint frame."""
 
     name: str
     type: str
@@ -136,8 +137,14 @@ def parse_urdf(text: str, source: str = "<string>") -> UrdfRobot:
         norm = float(np.linalg.norm(axis))
         if jtype != "fixed" and norm < 1e-12:
             raise ModelError(f"{source}: joint {jname!r} has a zero axis")
-        info = JointInfo(jname, jtype, parent, child, _origin(el.find("origin"), f"joint {jname!r}"),
-                         axis / norm if norm > 0 else axis)  # fmt: skip
+        info = JointInfo(
+            jname,
+            jtype,
+            parent,
+            child,
+            _origin(el.find("origin"), f"joint {jname!r}"),
+            axis / norm if norm > 0 else axis,
+        )
         limit = el.find("limit")
         if jtype in ("revolute", "prismatic"):
             if limit is None:
@@ -163,7 +170,9 @@ def parse_urdf(text: str, source: str = "<string>") -> UrdfRobot:
     names = [j.name for j in joints]
     for j in joints:
         if j.mimic is not None and j.mimic[0] not in names:
-            raise ModelError(f"{source}: joint {j.name!r} mimics " + unknown("joint", j.mimic[0], names))
+            raise ModelError(
+                f"{source}: joint {j.name!r} mimics " + unknown("joint", j.mimic[0], names)
+            )
     children = [j.child for j in joints]
     for lk in set(children):
         if children.count(lk) > 1:

@@ -111,8 +111,27 @@ def _trees_touch(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, stack):  #
 
 @njit(cache=True)
 def _classify_state(  # type: ignore[no-untyped-def]
-    TB, body_root, nodes, left, right, inner_start, inner, obs_kind, obs_T, obs_dims,
-    obs_inner_ok, world_pairs, self_pairs, W, stamp, Wi, stamp_i, cur, stack, stack2, flags,
+    TB,
+    body_root,
+    nodes,
+    left,
+    right,
+    inner_start,
+    inner,
+    obs_kind,
+    obs_T,
+    obs_dims,
+    obs_inner_ok,
+    world_pairs,
+    self_pairs,
+    W,
+    stamp,
+    Wi,
+    stamp_i,
+    cur,
+    stack,
+    stack2,
+    flags,
 ):
     """FREE / HIT / UNSURE for one state (body poses in TB). Unsure pairs are flagged
     (world pairs first, then self pairs) for the exact stage."""
@@ -121,14 +140,31 @@ def _classify_state(  # type: ignore[no-untyped-def]
     for k in range(n_world):
         b = world_pairs[k, 0]
         o = world_pairs[k, 1]
-        if not _tree_touches_obstacle(b, body_root[b], nodes, left, right, TB, W, stamp, cur,
-                                      obs_kind[o], obs_T[o], obs_dims[o], stack):  # fmt: skip
+        if not _tree_touches_obstacle(
+            b,
+            body_root[b],
+            nodes,
+            left,
+            right,
+            TB,
+            W,
+            stamp,
+            cur,
+            obs_kind[o],
+            obs_T[o],
+            obs_dims[o],
+            stack,
+        ):
             continue
         if obs_inner_ok[o]:
             for s in range(inner_start[b], inner_start[b + 1]):
                 _centre(s, b, TB, inner, Wi, stamp_i, cur)
-                if _obstacle_distance(Wi[s, 0], Wi[s, 1], Wi[s, 2], obs_kind[o], obs_T[o],
-                                      obs_dims[o]) < inner[s, 3]:  # fmt: skip
+                if (
+                    _obstacle_distance(
+                        Wi[s, 0], Wi[s, 1], Wi[s, 2], obs_kind[o], obs_T[o], obs_dims[o]
+                    )
+                    < inner[s, 3]
+                ):
                     return HIT
         unsure = True
         flags[k] = True
@@ -171,9 +207,35 @@ def _classify_state(  # type: ignore[no-untyped-def]
 
 @njit(cache=True, parallel=True)
 def classify(  # type: ignore[no-untyped-def]
-    qs, group_idx, q_base, joints, root, parent, child, origin, jtype, axis, var, mult, offset,
-    n_links, body_link, body_T, body_root, nodes, left, right, inner_start, inner,
-    obs_kind, obs_T, obs_dims, obs_inner_ok, world_pairs, self_pairs, chunk,
+    qs,
+    group_idx,
+    q_base,
+    joints,
+    root,
+    parent,
+    child,
+    origin,
+    jtype,
+    axis,
+    var,
+    mult,
+    offset,
+    n_links,
+    body_link,
+    body_T,
+    body_root,
+    nodes,
+    left,
+    right,
+    inner_start,
+    inner,
+    obs_kind,
+    obs_T,
+    obs_dims,
+    obs_inner_ok,
+    world_pairs,
+    self_pairs,
+    chunk,
 ):
     """(N,) int8 FREE/HIT/UNSURE for (N, dof) group configurations, and (N, P) flags of the
     unsure pairs of each unsure state."""
@@ -203,11 +265,33 @@ def classify(  # type: ignore[no-untyped-def]
                 L = T[body_link[b]]
                 for i in range(3):
                     for j in range(4):
-                        TB[b, i, j] = (L[i, 0] * body_T[b, 0, j] + L[i, 1] * body_T[b, 1, j]
-                                       + L[i, 2] * body_T[b, 2, j] + (L[i, 3] if j == 3 else 0.0))  # fmt: skip
+                        TB[b, i, j] = (
+                            L[i, 0] * body_T[b, 0, j]
+                            + L[i, 1] * body_T[b, 1, j]
+                            + L[i, 2] * body_T[b, 2, j]
+                            + (L[i, 3] if j == 3 else 0.0)
+                        )
             out[s] = _classify_state(
-                TB, body_root, nodes, left, right, inner_start, inner, obs_kind, obs_T,
-                obs_dims, obs_inner_ok, world_pairs, self_pairs, W, stamp, Wi, stamp_i, s,
-                stack, stack2, flags[s],
-            )  # fmt: skip
+                TB,
+                body_root,
+                nodes,
+                left,
+                right,
+                inner_start,
+                inner,
+                obs_kind,
+                obs_T,
+                obs_dims,
+                obs_inner_ok,
+                world_pairs,
+                self_pairs,
+                W,
+                stamp,
+                Wi,
+                stamp_i,
+                s,
+                stack,
+                stack2,
+                flags[s],
+            )
     return out, flags

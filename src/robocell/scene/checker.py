@@ -67,7 +67,9 @@ def obstacle_of(object_id: str, shape: Shape, T: NDArray[np.float64]) -> Obstacl
     if isinstance(shape, Box):
         return Obstacle(object_id, K.OBS_BOX, T, 0.5 * np.array(shape.size), True)
     if isinstance(shape, Cylinder):
-        return Obstacle(object_id, K.OBS_CYLINDER, T, np.array([shape.radius, 0.5 * shape.length, 0]), True)
+        return Obstacle(
+            object_id, K.OBS_CYLINDER, T, np.array([shape.radius, 0.5 * shape.length, 0]), True
+        )
     if isinstance(shape, Sphere):
         return Obstacle(object_id, K.OBS_SPHERE, T, np.array([shape.radius, 0, 0]), True)
     # a mesh: its bounding box in its own frame, for the sphere level only
@@ -91,7 +93,9 @@ def coal_geometry(shape: Shape) -> object:
     if isinstance(shape, Mesh):
         bvh = coal.BVHModelOBBRSS()
         bvh.beginModel(len(shape.triangles), len(shape.vertices))
-        bvh.addSubModel(np.asarray(shape.vertices, dtype=float), np.asarray(shape.triangles, dtype=np.int64))
+        bvh.addSubModel(
+            np.asarray(shape.vertices, dtype=float), np.asarray(shape.triangles, dtype=np.int64)
+        )
         bvh.endModel()
         return bvh
     raise SceneError(f"cannot build collision geometry for {shape!r}")
@@ -137,12 +141,15 @@ class CollisionChecker:
         moved = set(group.link_names)
 
         spheres = robot_spheres(robot)
-        bodies = [
-            Body(link, link, np.eye(4), s, link in moved) for link, s in spheres.items()
-        ]
+        bodies = [Body(link, link, np.eye(4), s, link in moved) for link, s in spheres.items()]
         T_links = link_poses(robot, self.base_positions)
         for att in scene.attached_objects.values():
-            tree = body_tree([(sh, p.matrix()) for sh, p in zip(att.object.shapes, att.object.shape_poses, strict=True)])
+            tree = body_tree(
+                [
+                    (sh, p.matrix())
+                    for sh, p in zip(att.object.shapes, att.object.shape_poses, strict=True)
+                ]
+            )
             bodies.append(Body(att.id, att.link, att.object.pose.matrix(), tree, att.link in moved))
         self.bodies = bodies
         T_root_world = scene.T_root_world
@@ -185,7 +192,11 @@ class CollisionChecker:
         """A held object may touch its link and its touch links."""
         for x, y in ((a, b), (b, a)):
             att = att_by_id.get(x.name)
-            if att is not None and x.name != y.name and (y.name in att.touch_links or y.name == att.link):
+            if (
+                att is not None
+                and x.name != y.name
+                and (y.name in att.touch_links or y.name == att.link)
+            ):
                 return True
         return False
 
@@ -196,15 +207,27 @@ class CollisionChecker:
         link_idx = np.array([robot.link_index(b.link) for b in bodies], dtype=np.int64)
         self._body_link = link_idx
         self._body_T = np.array([b.T_link_body for b in bodies]).reshape(-1, 4, 4)
-        node_start = np.concatenate([[0], np.cumsum([len(b.spheres.nodes) for b in bodies])]).astype(np.int64)
+        node_start = np.concatenate(
+            [[0], np.cumsum([len(b.spheres.nodes) for b in bodies])]
+        ).astype(np.int64)
         self._body_root = node_start[:-1].copy()
         self._nodes = np.vstack([b.spheres.nodes for b in bodies]) if bodies else np.zeros((0, 4))
-        self._left = np.concatenate([np.where(b.spheres.left >= 0, b.spheres.left + o, -1)
-                                     for b, o in zip(bodies, node_start, strict=False)]).astype(np.int64)  # fmt: skip
-        self._right = np.concatenate([np.where(b.spheres.right >= 0, b.spheres.right + o, -1)
-                                      for b, o in zip(bodies, node_start, strict=False)]).astype(np.int64)  # fmt: skip
+        self._left = np.concatenate(
+            [
+                np.where(b.spheres.left >= 0, b.spheres.left + o, -1)
+                for b, o in zip(bodies, node_start, strict=False)
+            ]
+        ).astype(np.int64)
+        self._right = np.concatenate(
+            [
+                np.where(b.spheres.right >= 0, b.spheres.right + o, -1)
+                for b, o in zip(bodies, node_start, strict=False)
+            ]
+        ).astype(np.int64)
         inner = [b.spheres.inner for b in bodies]
-        self._inner_start = np.concatenate([[0], np.cumsum([len(i) for i in inner])]).astype(np.int64)
+        self._inner_start = np.concatenate([[0], np.cumsum([len(i) for i in inner])]).astype(
+            np.int64
+        )
         self._inner = np.vstack(inner) if any(len(i) for i in inner) else np.zeros((0, 4))
         obs = self.obstacles
         self._obs_kind = np.array([o.kind for o in obs], dtype=np.int64)
@@ -240,16 +263,24 @@ class CollisionChecker:
             frame = pm.frames[fid]
             T_joint_obj = frame.placement.homogeneous @ att.object.pose.matrix()
             ids = []
-            for k, (shape, p) in enumerate(zip(att.object.shapes, att.object.shape_poses, strict=True)):
-                go = pin.GeometryObject(f"{att.id}#{k}", frame.parentJoint, fid,
-                                        pin.SE3(T_joint_obj @ p.matrix()), coal_geometry(shape))  # fmt: skip
+            for k, (shape, p) in enumerate(
+                zip(att.object.shapes, att.object.shape_poses, strict=True)
+            ):
+                go = pin.GeometryObject(
+                    f"{att.id}#{k}",
+                    frame.parentJoint,
+                    fid,
+                    pin.SE3(T_joint_obj @ p.matrix()),
+                    coal_geometry(shape),
+                )
                 ids.append(gm.addGeometryObject(go))
             geoms_of[att.id] = ids
         obs_geoms: list[int] = []
         for obj in self._world_objects:
             for k, (shape, T) in enumerate(zip(obj.shapes, obj.shape_matrices(), strict=True)):
-                go = pin.GeometryObject(f"{obj.id}#{k}", 0, 0, pin.SE3(self._T_root_world @ T),
-                                        coal_geometry(shape))  # fmt: skip
+                go = pin.GeometryObject(
+                    f"{obj.id}#{k}", 0, 0, pin.SE3(self._T_root_world @ T), coal_geometry(shape)
+                )
                 obs_geoms.append(gm.addGeometryObject(go))
         for bi, oi in self.world_pairs:
             for g in geoms_of.get(self.bodies[bi].name, []):
@@ -279,7 +310,9 @@ class CollisionChecker:
         if len(gm.collisionPairs) == 0:
             return np.zeros(q.shape[0], dtype=bool)
         Q = np.asfortranarray(self.robot.pin_configurations(self._full(q)).T)
-        return np.asarray(pin.computeCollisionsInParallel(self.exact_threads, pool, Q, True), dtype=bool)
+        return np.asarray(
+            pin.computeCollisionsInParallel(self.exact_threads, pool, Q, True), dtype=bool
+        )
 
     def classify(self, qs: ArrayLike) -> tuple[NDArray[np.int8], NDArray[np.bool_]]:
         """The sphere level alone: (N,) int8 (0 free, 1 colliding, 2 unsure) and (N, P) flags
@@ -287,11 +320,29 @@ class CollisionChecker:
         q = self.group.as_joint_batch(qs)
         a = self._args
         return K.classify(
-            q, self._group_idx, self.base_positions, self._joints, a.root, *a.arrays, a.n_links,
-            self._body_link, self._body_T, self._body_root, self._nodes, self._left, self._right,
-            self._inner_start, self._inner, self._obs_kind, self._obs_T, self._obs_dims,
-            self._obs_inner_ok, self._world_pairs, self._self_pairs, 64,
-        )  # fmt: skip
+            q,
+            self._group_idx,
+            self.base_positions,
+            self._joints,
+            a.root,
+            *a.arrays,
+            a.n_links,
+            self._body_link,
+            self._body_T,
+            self._body_root,
+            self._nodes,
+            self._left,
+            self._right,
+            self._inner_start,
+            self._inner,
+            self._obs_kind,
+            self._obs_T,
+            self._obs_dims,
+            self._obs_inner_ok,
+            self._world_pairs,
+            self._self_pairs,
+            64,
+        )
 
     def check(self, qs: ArrayLike) -> NDArray[np.bool_]:
         """(N,) bool, True where the configuration (N, dof) is in collision."""
@@ -311,7 +362,9 @@ class CollisionChecker:
         """(N,) bool, True where the configuration is collision-free."""
         return ~self.check(qs)
 
-    def motion_states(self, q_a: ArrayLike, q_b: ArrayLike, resolution: float = 0.01) -> NDArray[np.float64]:
+    def motion_states(
+        self, q_a: ArrayLike, q_b: ArrayLike, resolution: float = 0.01
+    ) -> NDArray[np.float64]:
         """States on the segment q_a → q_b (both ends included), at most ``resolution`` apart
         per joint."""
         a = self.group.as_joint_vector(q_a, "motion start")
@@ -341,14 +394,31 @@ class CollisionChecker:
         import pinocchio as pin
 
         qv = self.group.as_joint_vector(q)
-        pairs = [] if only_static else [(self.bodies[i].name, self.obstacles[o].object_id) for i, o in self.world_pairs]
-        pairs += [] if only_static else [(self.bodies[i].name, self.bodies[j].name) for i, j in self.self_pairs]
+        pairs = (
+            []
+            if only_static
+            else [(self.bodies[i].name, self.obstacles[o].object_id) for i, o in self.world_pairs]
+        )
+        pairs += (
+            []
+            if only_static
+            else [(self.bodies[i].name, self.bodies[j].name) for i, j in self.self_pairs]
+        )
         if include_static:
-            pairs += [(self.bodies[i].name, self.obstacles[o].object_id) for i, o in self.static_world_pairs]
+            pairs += [
+                (self.bodies[i].name, self.obstacles[o].object_id)
+                for i, o in self.static_world_pairs
+            ]
             pairs += [(self.bodies[i].name, self.bodies[j].name) for i, j in self.static_self_pairs]
         gm, gd, data, _ = self._full_exact_model()
-        pin.computeCollisions(self.robot.pin_model, data, gm, gd,
-                              self.robot.pin_configurations(self._full(qv[None]))[0], False)  # fmt: skip
+        pin.computeCollisions(
+            self.robot.pin_model,
+            data,
+            gm,
+            gd,
+            self.robot.pin_configurations(self._full(qv[None]))[0],
+            False,
+        )
         hits: set[tuple[str, str]] = set()
         wanted = {frozenset(p) for p in pairs}
         for k, cp in enumerate(gm.collisionPairs):
@@ -366,8 +436,13 @@ class CollisionChecker:
         gm, gd, data, _ = self._full_exact_model()
         if len(gm.collisionPairs) == 0:
             return math.inf, ("", "")
-        pin.computeDistances(self.robot.pin_model, data, gm, gd,
-                             self.robot.pin_configurations(self._full(qv[None]))[0])  # fmt: skip
+        pin.computeDistances(
+            self.robot.pin_model,
+            data,
+            gm,
+            gd,
+            self.robot.pin_configurations(self._full(qv[None]))[0],
+        )
         d = [r.min_distance for r in gd.distanceResults]
         k = int(np.argmin(d))
         cp = gm.collisionPairs[k]

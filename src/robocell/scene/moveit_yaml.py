@@ -111,11 +111,15 @@ def _joint_values(robot: RobotModel, js: dict[str, Any], where: str) -> dict[str
         if n in robot.variable_names:
             out[n] = float(v)
         elif n not in urdf_joints:
-            raise SceneError(f"{where}: unknown joint {n!r}; known: {choices(robot.variable_names)}")
+            raise SceneError(
+                f"{where}: unknown joint {n!r}; known: {choices(robot.variable_names)}"
+            )
     return out
 
 
-def load_scene(robot: RobotModel, path: str | Path, scene: PlanningScene | None = None) -> PlanningScene:
+def load_scene(
+    robot: RobotModel, path: str | Path, scene: PlanningScene | None = None
+) -> PlanningScene:
     """A :class:`PlanningScene` from a MoveIt PlanningScene YAML file (world objects, robot
     state, allowed-collision matrix). Into ``scene`` if given: all or nothing."""
     data = _read_yaml(path)
@@ -134,10 +138,15 @@ def load_scene(robot: RobotModel, path: str | Path, scene: PlanningScene | None 
     names = acm.get("entry_names") or []
     values = acm.get("entry_values") or []
     if len(values) != len(names):
-        raise SceneError(f"{where}: allowed_collision_matrix has {len(names)} names but {len(values)} rows")
+        raise SceneError(
+            f"{where}: allowed_collision_matrix has {len(names)} names but {len(values)} rows"
+        )
     for i, row in enumerate(values):
         if len(row) != len(names):
-            raise SceneError(f"{where}: allowed_collision_matrix row {i} has {len(row)} entries, expected {len(names)}")
+            raise SceneError(
+                f"{where}: allowed_collision_matrix row {i} has {len(row)} entries, "
+                f"expected {len(names)}"
+            )
         for j in range(i + 1, len(names)):
             target.acm.set_entry(names[i], names[j], bool(row[j]))
     target._changed()
@@ -151,20 +160,35 @@ def scene_to_dict(scene: PlanningScene) -> dict[str, Any]:
     """The scene as a MoveIt PlanningScene message (world objects, robot state, ACM)."""
     objs = []
     for obj in scene.world_objects.values():
-        msg: dict[str, Any] = {"id": obj.id, "pose": obj.pose.to_dict(), "primitives": [],
-                               "primitive_poses": [], "meshes": [], "mesh_poses": []}  # fmt: skip
+        msg: dict[str, Any] = {
+            "id": obj.id,
+            "pose": obj.pose.to_dict(),
+            "primitives": [],
+            "primitive_poses": [],
+            "meshes": [],
+            "mesh_poses": [],
+        }
         for shape, p in zip(obj.shapes, obj.shape_poses, strict=True):
             if isinstance(shape, Box):
                 msg["primitives"].append({"type": "box", "dimensions": list(shape.size)})
             elif isinstance(shape, Cylinder):
-                msg["primitives"].append({"type": "cylinder", "dimensions": [shape.length, shape.radius]})
+                msg["primitives"].append(
+                    {"type": "cylinder", "dimensions": [shape.length, shape.radius]}
+                )
             elif isinstance(shape, Sphere):
                 msg["primitives"].append({"type": "sphere", "dimensions": [shape.radius]})
             else:
-                msg["meshes"].append({
-                    "vertices": [{"x": float(v[0]), "y": float(v[1]), "z": float(v[2])} for v in shape.vertices],
-                    "triangles": [{"vertex_indices": [int(i) for i in t]} for t in shape.triangles],
-                })  # fmt: skip
+                msg["meshes"].append(
+                    {
+                        "vertices": [
+                            {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
+                            for v in shape.vertices
+                        ],
+                        "triangles": [
+                            {"vertex_indices": [int(i) for i in t]} for t in shape.triangles
+                        ],
+                    }
+                )
                 msg["mesh_poses"].append(p.to_dict())
                 continue
             msg["primitive_poses"].append(p.to_dict())
@@ -174,15 +198,28 @@ def scene_to_dict(scene: PlanningScene) -> dict[str, Any]:
         objs.append(msg)
     entry = scene.acm.entries()
     names = sorted(scene.acm.names())
-    values = [[bool(entry.get(frozenset((a, b)), False)) if a != b else False for b in names] for a in names]
+    values = [
+        [bool(entry.get(frozenset((a, b)), False)) if a != b else False for b in names]
+        for a in names
+    ]
     return {
         "name": scene.name,
         "robot_model_name": scene.robot.name,
-        "fixed_frame_transforms": [{"child_frame_id": "world", "transform": {
-            "translation": scene.robot_pose.position.tolist(),
-            "rotation": scene.robot_pose.orientation.tolist()}}],  # fmt: skip
-        "robot_state": {"joint_state": {"name": list(scene.robot.variable_names),
-                                        "position": scene.state.positions.tolist()}},  # fmt: skip
+        "fixed_frame_transforms": [
+            {
+                "child_frame_id": "world",
+                "transform": {
+                    "translation": scene.robot_pose.position.tolist(),
+                    "rotation": scene.robot_pose.orientation.tolist(),
+                },
+            }
+        ],
+        "robot_state": {
+            "joint_state": {
+                "name": list(scene.robot.variable_names),
+                "position": scene.state.positions.tolist(),
+            }
+        },
         "allowed_collision_matrix": {"entry_names": names, "entry_values": values},
         "world": {"collision_objects": objs},
     }
@@ -208,7 +245,9 @@ class PlanRequest:
     source: str = ""
 
 
-def load_request(robot: RobotModel, path: str | Path, scene: PlanningScene | None = None) -> PlanRequest:
+def load_request(
+    robot: RobotModel, path: str | Path, scene: PlanningScene | None = None
+) -> PlanRequest:
     """A MotionPlanRequest YAML with a joint-space goal (goal_constraints[0].joint_constraints).
     Joints the request's start state omits take ``scene``'s current values (or defaults)."""
     data = _read_yaml(path)
@@ -224,17 +263,23 @@ def load_request(robot: RobotModel, path: str | Path, scene: PlanningScene | Non
         base[robot.variable_index(name)] = v
     goals = data.get("goal_constraints") or []
     if not goals or not goals[0].get("joint_constraints"):
-        raise SceneError(f"{where}: only joint-space goals are read (goal_constraints[0].joint_constraints)")
+        raise SceneError(
+            f"{where}: only joint-space goals are read (goal_constraints[0].joint_constraints)"
+        )
     goal = base[group.indices].copy()
     tols = np.zeros(group.dof)
     for jc in goals[0]["joint_constraints"]:
         name = jc.get("joint_name")
         if name not in group.joint_names:
-            raise SceneError(f"{where}: goal joint {name!r} is not in group {group.name!r}; "
-                             f"its joints: {', '.join(group.joint_names)}")  # fmt: skip
+            raise SceneError(
+                f"{where}: goal joint {name!r} is not in group {group.name!r}; "
+                f"its joints: {', '.join(group.joint_names)}"
+            )
         k = group.joint_names.index(name)
         goal[k] = float(jc["position"])
-        tols[k] = max(float(jc.get("tolerance_above", 0) or 0), float(jc.get("tolerance_below", 0) or 0))
+        tols[k] = max(
+            float(jc.get("tolerance_above", 0) or 0), float(jc.get("tolerance_below", 0) or 0)
+        )
     return PlanRequest(
         group=group.name,
         start=base[group.indices].copy(),

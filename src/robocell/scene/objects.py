@@ -1,4 +1,5 @@
-"""World collision objects and attached objects (MoveIt's CollisionObject / AttachedCollisionObject)."""
+"""World collision objects and attached objects (MoveIt's CollisionObject and
+AttachedCollisionObject)."""
 
 from __future__ import annotations
 
@@ -40,7 +41,9 @@ class CollisionObject:
             )
         for s in shapes:
             if not isinstance(s, Box | Cylinder | Sphere | Mesh):
-                raise SceneError(f"object {self.id!r}: {s!r} is not a Box, Cylinder, Sphere or Mesh")
+                raise SceneError(
+                    f"object {self.id!r}: {s!r} is not a Box, Cylinder, Sphere or Mesh"
+                )
         object.__setattr__(self, "shapes", shapes)
         object.__setattr__(self, "shape_poses", poses)
         object.__setattr__(self, "pose", Pose.from_any(self.pose))

@@ -93,14 +93,18 @@ class PlanningScene:
         if not isinstance(obj, CollisionObject):
             raise SceneError(f"add_object takes a CollisionObject, got {type(obj).__name__}")
         if obj.id in self._world or obj.id in self._attached:
-            raise SceneError(f"an object with id {obj.id!r} already exists; ids in the scene: "
-                             f"{choices([*self._world, *self._attached])}")  # fmt: skip
+            raise SceneError(
+                f"an object with id {obj.id!r} already exists; ids in the scene: "
+                f"{choices([*self._world, *self._attached])}"
+            )
         if obj.id in self.robot.link_names:
             raise SceneError(f"object id {obj.id!r} is the name of a robot link; choose another")
         self._world[obj.id] = obj
         self._changed()
 
-    def add_shape(self, id: str, shape: Shape, pose: Pose | ArrayLike | None = None) -> CollisionObject:
+    def add_shape(
+        self, id: str, shape: Shape, pose: Pose | ArrayLike | None = None
+    ) -> CollisionObject:
         """Add a one-shape object at ``pose`` (world frame) and return it."""
         obj = CollisionObject.single(id, shape, Pose.from_any(pose if pose is not None else Pose()))
         self.add_object(obj)
@@ -110,15 +114,18 @@ class PlanningScene:
         """A box of full extents ``size`` (x, y, z) [m] centred at ``pose``."""
         return self.add_shape(id, Box(tuple(np.asarray(size, float).tolist())), pose)  # type: ignore[arg-type]
 
-    def add_cylinder(self, id: str, pose: Pose | ArrayLike, radius: float, length: float) -> CollisionObject:
+    def add_cylinder(
+        self, id: str, pose: Pose | ArrayLike, radius: float, length: float
+    ) -> CollisionObject:
         """A cylinder (axis z, centred) of ``radius`` and ``length`` [m] at ``pose``."""
         return self.add_shape(id, Cylinder(radius, length), pose)
 
     def add_sphere(self, id: str, pose: Pose | ArrayLike, radius: float) -> CollisionObject:
         return self.add_shape(id, Sphere(radius), pose)
 
-    def add_mesh(self, id: str, pose: Pose | ArrayLike, path: str | Path,
-                 scale: ArrayLike = (1.0, 1.0, 1.0)) -> CollisionObject:  # fmt: skip
+    def add_mesh(
+        self, id: str, pose: Pose | ArrayLike, path: str | Path, scale: ArrayLike = (1.0, 1.0, 1.0)
+    ) -> CollisionObject:
         """A mesh read from an STL, OBJ or DAE file, at ``pose``."""
         return self.add_shape(id, Mesh.from_file(path, scale), pose)
 
@@ -137,7 +144,9 @@ class PlanningScene:
     def remove_object(self, id: str) -> None:
         """Remove a world object (detach a held one first)."""
         if id in self._attached:
-            raise SceneError(f"object {id!r} is held by link {self._attached[id].link!r}; detach it first")
+            raise SceneError(
+                f"object {id!r} is held by link {self._attached[id].link!r}; detach it first"
+            )
         self.get_object(id)
         del self._world[id]
         self.acm.remove(id)
@@ -152,7 +161,9 @@ class PlanningScene:
         self._changed()
 
     # ------------------------------------------------------------------ attached objects
-    def attach_object(self, id: str, link: str, touch_links: Iterable[str] | None = None) -> AttachedObject:
+    def attach_object(
+        self, id: str, link: str, touch_links: Iterable[str] | None = None
+    ) -> AttachedObject:
         """Attach world object ``id`` to ``link``, keeping its current world pose. Touch links
         (allowed to touch it) default to ``link`` and the links of any end effector on ``link``."""
         obj = self.get_object(id)
@@ -206,10 +217,15 @@ class PlanningScene:
             self._checkers[key] = CollisionChecker(self, g)
         return self._checkers[key]
 
-    def _group_and_q(self, q: ArrayLike | None, group: str | JointGroup | None) -> tuple[JointGroup, NDArray[np.float64]]:
+    def _group_and_q(
+        self, q: ArrayLike | None, group: str | JointGroup | None
+    ) -> tuple[JointGroup, NDArray[np.float64]]:
         if group is None:
             all_group = self._all_group()
-            return all_group, self.state.positions.copy() if q is None else all_group.as_joint_vector(q)
+            return (
+                all_group,
+                self.state.positions.copy() if q is None else all_group.as_joint_vector(q),
+            )
         g = self.robot.group(group) if isinstance(group, str) else group
         return g, self.state.group_positions(g) if q is None else g.as_joint_vector(q)
 
@@ -219,29 +235,48 @@ class PlanningScene:
             r = self.robot
             idx = np.arange(r.n_variables)
             self._whole = JointGroup(
-                "(all joints)", list(r.variable_names), idx, r.lower.copy(), r.upper.copy(),
-                r.velocity_limits.copy(), r.acceleration_limits.copy(), r.jerk_limits.copy(),
-                r.continuous.copy(), r.root_link, "", list(r.link_names),
-                r.default_positions.copy(), {}, r,
-            )  # fmt: skip
+                "(all joints)",
+                list(r.variable_names),
+                idx,
+                r.lower.copy(),
+                r.upper.copy(),
+                r.velocity_limits.copy(),
+                r.acceleration_limits.copy(),
+                r.jerk_limits.copy(),
+                r.continuous.copy(),
+                r.root_link,
+                "",
+                list(r.link_names),
+                r.default_positions.copy(),
+                {},
+                r,
+            )
         return self._whole
 
-    def in_collision(self, q: ArrayLike | None = None, group: str | JointGroup | None = None) -> bool:
+    def in_collision(
+        self, q: ArrayLike | None = None, group: str | JointGroup | None = None
+    ) -> bool:
         """Whether the robot (state now, or group values ``q``) collides."""
         g, qv = self._group_and_q(q, group)
         return bool(self.checker(g).check(qv[None])[0])
 
-    def is_state_valid(self, q: ArrayLike | None = None, group: str | JointGroup | None = None) -> bool:
+    def is_state_valid(
+        self, q: ArrayLike | None = None, group: str | JointGroup | None = None
+    ) -> bool:
         """Collision-free and within joint limits."""
         g, qv = self._group_and_q(q, group)
         return bool(g.within_limits(qv)) and not self.in_collision(qv, g)
 
-    def colliding_pairs(self, q: ArrayLike | None = None, group: str | JointGroup | None = None) -> list[tuple[str, str]]:
+    def colliding_pairs(
+        self, q: ArrayLike | None = None, group: str | JointGroup | None = None
+    ) -> list[tuple[str, str]]:
         """Names of the pairs in collision (links, object ids)."""
         g, qv = self._group_and_q(q, group)
         return self.checker(g).colliding_pairs(qv)
 
-    def distance(self, q: ArrayLike | None = None, group: str | JointGroup | None = None) -> DistanceResult:
+    def distance(
+        self, q: ArrayLike | None = None, group: str | JointGroup | None = None
+    ) -> DistanceResult:
         """The smallest distance between any checked pair, and that pair."""
         g, qv = self._group_and_q(q, group)
         d, pair = self.checker(g).min_distance(qv)

@@ -11,7 +11,8 @@ For every body (a robot link, or a held object) two things, in the body's frame:
   does (certain "hit", bodies being solids).
 
 Leaves of a mesh: each triangle is clipped to every cell of a 3-D grid it spans; a ball around
-the clipped pieces' vertices in a cell covers those pieces (balls are convex). Leaves of a primitive: an octree keeps cells wholly inside the solid
+the clipped pieces' vertices in a cell covers those pieces (balls are convex).
+Leaves of a primitive: an octree keeps cells wholly inside the solid
 as one sphere each (which are also inner spheres) and splits cells on the surface down to the leaf
 size. Inner spheres of a mesh: points found inside by the winding number, with radius equal to the
 distance to the surface.
@@ -166,12 +167,14 @@ def _cell_points(V, F, lo, h, n):  # type: ignore[no-untyped-def]
     return codes[:k], pts[:k]
 
 
-def mesh_surface_leaves(V: NDArray[np.float64], F: NDArray[np.int64], h: float) -> NDArray[np.float64]:
+def mesh_surface_leaves(
+    V: NDArray[np.float64], F: NDArray[np.int64], h: float
+) -> NDArray[np.float64]:
     """Leaf spheres covering a triangle surface: one per occupied grid cell of edge h, around
     the pieces of the triangles clipped to that cell (a ball contains their convex hulls)."""
     V = np.ascontiguousarray(V, dtype=float)
     lo = V.min(axis=0) - 1e-9
-    n = (np.floor((V.max(axis=0) - lo) / h).astype(np.int64) + 2)
+    n = np.floor((V.max(axis=0) - lo) / h).astype(np.int64) + 2
     codes, pts = _cell_points(V, np.ascontiguousarray(F, dtype=np.int64), lo, h, n)
     order = np.argsort(codes, kind="stable")
     codes, pts = codes[order], pts[order]
@@ -273,8 +276,11 @@ def winding_and_distance(P, tri):  # type: ignore[no-untyped-def]
             la = math.sqrt(a @ a)
             lb = math.sqrt(b @ b)
             lc = math.sqrt(c @ c)
-            det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) \
+            det = (
+                a[0] * (b[1] * c[2] - b[2] * c[1])
+                - a[1] * (b[0] * c[2] - b[2] * c[0])
                 + a[2] * (b[0] * c[1] - b[1] * c[0])
+            )
             div = la * lb * lc + (a @ b) * lc + (b @ c) * la + (c @ a) * lb
             acc += math.atan2(det, div)
             q = _closest_on_triangle(p, tri[f, 0], tri[f, 1], tri[f, 2]) - p
@@ -297,7 +303,9 @@ def _prune_inner(S: NDArray[np.float64], max_inner: int) -> NDArray[np.float64]:
     return np.array(kept)
 
 
-def mesh_inner(V: NDArray[np.float64], F: NDArray[np.int64], max_inner: int = 24) -> NDArray[np.float64]:
+def mesh_inner(
+    V: NDArray[np.float64], F: NDArray[np.int64], max_inner: int = 24
+) -> NDArray[np.float64]:
     """Spheres inside a closed mesh (none if it is open or too thin)."""
     lo, hi = V.min(axis=0), V.max(axis=0)
     g = [np.linspace(lo[k], hi[k], 8)[1:-1] for k in range(3)]
@@ -367,15 +375,18 @@ def _build_tree(leaves):  # type: ignore[no-untyped-def]
     return nodes, left, right
 
 
-def build_tree(leaves: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+def build_tree(
+    leaves: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
     """A binary tree over leaf spheres (node 0 is the root; leaves have left = right = −1)."""
     if len(leaves) == 0:
         return np.zeros((0, 4)), np.zeros(0, np.int64), np.zeros(0, np.int64)
     return _build_tree(np.ascontiguousarray(leaves, dtype=float))  # type: ignore[no-any-return]
 
 
-def shape_tree(shape: Shape, T_owner_shape: NDArray[np.float64] | None = None,
-               leaf_size: float = LEAF_SIZE) -> SphereTree:  # fmt: skip
+def shape_tree(
+    shape: Shape, T_owner_shape: NDArray[np.float64] | None = None, leaf_size: float = LEAF_SIZE
+) -> SphereTree:
     """The sphere tree and inner spheres of one shape placed at ``T_owner_shape``."""
     T = np.eye(4) if T_owner_shape is None else np.asarray(T_owner_shape, float)
     if isinstance(shape, Mesh):
@@ -388,7 +399,9 @@ def shape_tree(shape: Shape, T_owner_shape: NDArray[np.float64] | None = None,
     return _place(leaves, inner, T)
 
 
-def _place(leaves: NDArray[np.float64], inner: NDArray[np.float64], T: NDArray[np.float64]) -> SphereTree:
+def _place(
+    leaves: NDArray[np.float64], inner: NDArray[np.float64], T: NDArray[np.float64]
+) -> SphereTree:
     def move(S: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.c_[S[:, :3] @ T[:3, :3].T + T[:3, 3], S[:, 3]] if len(S) else S.reshape(0, 4)
 
@@ -408,7 +421,8 @@ def merge_trees(trees: list[SphereTree]) -> SphereTree:
 # ---------------------------------------------------------------------------------- cache
 def _cache_dir() -> Path | None:
     base = os.environ.get("ROBOCELL_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "robocell")
+        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "robocell"
+    )
     path = Path(base) / "spheres"
     try:
         path.mkdir(parents=True, exist_ok=True)
@@ -419,11 +433,16 @@ def _cache_dir() -> Path | None:
 
 def _shape_key(shape: Shape) -> bytes:
     if isinstance(shape, Mesh):
-        return np.ascontiguousarray(shape.vertices).tobytes() + np.ascontiguousarray(shape.triangles).tobytes()
+        return (
+            np.ascontiguousarray(shape.vertices).tobytes()
+            + np.ascontiguousarray(shape.triangles).tobytes()
+        )
     return repr(shape).encode()
 
 
-def body_tree(shapes: list[tuple[Shape, NDArray[np.float64]]], leaf_size: float = LEAF_SIZE) -> SphereTree:
+def body_tree(
+    shapes: list[tuple[Shape, NDArray[np.float64]]], leaf_size: float = LEAF_SIZE
+) -> SphereTree:
     """The tree of a body made of several (shape, T_body_shape), cached on disk (building the
     tree of a fine mesh takes a second; loading it takes a millisecond)."""
     h = hashlib.sha1(f"v{SPHERE_MODEL_VERSION} leaf {leaf_size}".encode())
