@@ -88,3 +88,18 @@ def test_failed_load_leaves_the_scene_alone(tmp_path, mbm_ur5):
     with pytest.raises(SceneError, match="already exists"):
         load_scene(mbm_ur5, bad, scene)
     assert scene.object_ids == ["keep"]
+
+
+def test_mesh_objects_round_trip(tmp_path, irb120):
+    from robocell.geometry import Mesh, Pose
+
+    stl = mbm_dir() / "ur5" / "meshes" / "robotiq_fts300.stl"
+    scene = PlanningScene(irb120)
+    scene.add_mesh("sensor", Pose.from_rpy(0.3, 0.1, 0.2, 0.1, 0.2, 0.3), stl)
+    save_scene(scene, tmp_path / "mesh.yaml")
+    again = load_scene(irb120, tmp_path / "mesh.yaml")
+    a, b = scene.get_object("sensor"), again.get_object("sensor")
+    assert isinstance(b.shapes[0], Mesh)
+    assert np.allclose(a.shapes[0].vertices, b.shapes[0].vertices)
+    assert np.array_equal(a.shapes[0].triangles, b.shapes[0].triangles)
+    assert (a.pose * a.shape_poses[0]).isclose(b.pose * b.shape_poses[0], 1e-12, 1e-9)

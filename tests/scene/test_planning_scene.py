@@ -194,3 +194,41 @@ def test_gripper_joint_state_moves_fingers_in_arm_checks(irb120):
     assert not scene.in_collision(q, arm)  # open: 85 mm between the pads
     scene.set_joint_positions("gripper", [0.8])
     assert scene.in_collision(q, arm)  # closed: the pads meet inside the block
+
+
+def test_mesh_obstacles_are_checked_exactly(irb120):
+    """A world mesh (STL) is tested at the sphere level through its bounding box and settled by
+    the exact check; the fast answer must agree with the exact one."""
+    from tests.conftest import mbm_dir
+
+    stl = mbm_dir() / "ur5" / "meshes" / "robotiq_fts300.stl"
+    scene = PlanningScene(irb120)
+    obj = scene.add_mesh("sensor", Pose((0.35, 0.0, 0.45)), stl, scale=(3, 3, 3))
+    assert obj.shapes[0].kind == "mesh" and len(obj.shapes[0].triangles) > 100
+    arm = irb120.group("arm")
+    checker = scene.checker(arm)
+    qs = arm.random(np.random.default_rng(7), 3000)
+    fast = checker.check(qs)
+    exact = checker.check_exact(qs)
+    assert np.array_equal(fast, exact)
+    hits = np.flatnonzero(exact)
+    assert any("sensor" in p for q in qs[hits[:20]] for p in checker.colliding_pairs(q))
+    with pytest.raises(GeometryError, match="not found"):
+        scene.add_mesh("ghost", Pose(), stl.with_name("nope.stl"))
+    assert scene.object_ids == ["sensor"]
+
+
+def test_robot_mounted_off_the_world_origin(irb120):
+    """World objects are in the world frame; the robot's root sits at robot_pose."""
+    arm = irb120.group("arm")
+    q = np.array([0.0, 0.5, 0.0, 0.0, 0.5, 0.0])
+    T_root_tcp = fk(arm, q, "tcp")
+    mount = Pose.from_rpy(1.0, -2.0, 0.9, 0, 0, np.pi / 2)
+    scene = PlanningScene(irb120, robot_pose=mount)
+    T_world_tcp = mount.matrix() @ T_root_tcp
+    scene.add_shape("blocker", Sphere(0.05), Pose(T_world_tcp[:3, 3]))  # wider than the pads
+    assert scene.in_collision(q, arm)
+    T_world_tcp_home = mount.matrix() @ fk(arm, np.zeros(6), "tcp")
+    assert np.allclose(scene.link_pose("tcp").position, T_world_tcp_home[:3, 3])
+    scene.move_object("blocker", Pose(T_root_tcp[:3, 3]))  # the same point in the root frame
+    assert not scene.in_collision(q, arm)

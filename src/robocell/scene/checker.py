@@ -93,9 +93,8 @@ def coal_geometry(shape: Shape) -> object:
     if isinstance(shape, Mesh):
         bvh = coal.BVHModelOBBRSS()
         bvh.beginModel(len(shape.triangles), len(shape.vertices))
-        bvh.addSubModel(
-            np.asarray(shape.vertices, dtype=float), np.asarray(shape.triangles, dtype=np.int64)
-        )
+        bvh.addVertices(np.ascontiguousarray(shape.vertices, dtype=np.float64))
+        bvh.addTriangles(np.ascontiguousarray(shape.triangles, dtype=np.int64))
         bvh.endModel()
         return bvh
     raise SceneError(f"cannot build collision geometry for {shape!r}")
