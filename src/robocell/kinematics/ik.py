@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
@@ -313,12 +313,6 @@ def ik_solver(group: JointGroup, tip_link: str | None = None) -> AnalyticIK | Nu
 
 class _Checker(Protocol):
     def check(self, qs: NDArray[np.float64]) -> NDArray[np.bool_]: ...
-
-
-@dataclass
-class _Filtered:
-    kept: NDArray[np.float64]
-    dropped: int = field(default=0)
 
 
 def solve_ik(
