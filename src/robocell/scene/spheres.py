@@ -32,8 +32,10 @@ from numpy.typing import NDArray
 
 from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere, triangulate
 
-LEAF_SIZE = 0.004  # [m] leaf cell edge: sets how close two bodies can be and still be proven free
-SPHERE_MODEL_VERSION = 5  # bump when the construction changes: cached trees are then rebuilt
+# [m] leaf cell edge: sets how close two bodies can be and still be proven free. 3 mm left
+# 12–13 % of random UR5 states unsure against 15–17 % at 4 mm and 19–22 % at 8 mm (measured).
+LEAF_SIZE = 0.003
+SPHERE_MODEL_VERSION = 6  # bump when the construction changes: cached trees are then rebuilt
 
 
 @dataclass
@@ -200,8 +202,9 @@ def signed_distance(shape: Shape, P: NDArray[np.float64]) -> NDArray[np.float64]
 
 def primitive_leaves(shape: Shape, h: float) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Octree cover of a solid primitive: (leaves (L, 4), inside (L,)). A cell wholly inside
-    the solid is one leaf (and is flagged: it is an inner sphere); a cell on the surface is split
-    until its circumscribed radius is at most h; cells outside are dropped."""
+    the solid is one leaf (flagged: it is an inner sphere); a cell whose sphere pokes out of the
+    solid by at most h is a leaf too; a cell crossing the surface further is split until its
+    circumscribed radius is at most h; cells outside are dropped."""
     V, _ = triangulate(shape)
     lo, hi = V.min(axis=0), V.max(axis=0)
     centre = 0.5 * (lo + hi)
@@ -214,11 +217,13 @@ def primitive_leaves(shape: Shape, h: float) -> tuple[NDArray[np.float64], NDArr
             break
         R = halves * math.sqrt(3.0)
         sd = signed_distance(shape, centres)
-        keep_in = sd <= -R  # the whole circumscribed sphere is inside the solid
+        keep_in = sd <= -R  # the whole circumscribed sphere is inside the solid: an inner sphere
         leaves.append(np.c_[centres[keep_in], R[keep_in]])
         inside.append(np.ones(int(keep_in.sum()), dtype=bool))
-        near = (sd < R) & ~keep_in  # cells the surface may cross
-        small = near & (R <= h)
+        # a cell whose sphere pokes out of the solid by at most h is a fine leaf as it is
+        # (covering needs no more); only cells that cross the surface further are split
+        near = (sd < R) & ~keep_in
+        small = near & ((R <= h) | (sd <= -R + h))
         leaves.append(np.c_[centres[small], R[small] * (1 + 1e-9) + 1e-7])
         inside.append(np.zeros(int(small.sum()), dtype=bool))
         split = near & ~small
