@@ -235,15 +235,18 @@ def classify(  # type: ignore[no-untyped-def]
     obs_inner_ok,
     world_pairs,
     self_pairs,
+    record_flags,
     chunk,
 ):
     """(N,) int8 FREE/HIT/UNSURE for (N, dof) group configurations, and (N, P) flags of the
-    unsure pairs of each unsure state."""
+    unsure pairs of each unsure state ((0, P) unless ``record_flags``: a scratch row per chunk
+    then takes the writes)."""
     N = qs.shape[0]
     out = np.empty(N, np.int8)
     P = world_pairs.shape[0] + self_pairs.shape[0]
-    flags = np.zeros((N, P), np.bool_)
     n_chunks = (N + chunk - 1) // chunk
+    flags = np.zeros((N if record_flags else 0, P), np.bool_)
+    scratch = np.zeros((0 if record_flags else n_chunks, P), np.bool_)
     M = max(nodes.shape[0], 1)
     K = max(inner.shape[0], 1)
     B = body_link.shape[0]
@@ -292,6 +295,6 @@ def classify(  # type: ignore[no-untyped-def]
                 s,
                 stack,
                 stack2,
-                flags[s],
+                flags[s] if record_flags else scratch[c],
             )
     return out, flags

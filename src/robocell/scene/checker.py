@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robocell.errors import SceneError
 from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere
-from robocell.kinematics.fk import link_poses, tree_args
+from robocell.kinematics.fk import tree_args
 from robocell.robot.model import JointGroup, RobotModel
 from robocell.scene import _kernels as K
 from robocell.scene.objects import AttachedObject
@@ -141,7 +141,6 @@ class CollisionChecker:
 
         spheres = robot_spheres(robot)
         bodies = [Body(link, link, np.eye(4), s, link in moved) for link, s in spheres.items()]
-        T_links = link_poses(robot, self.base_positions)
         for att in scene.attached_objects.values():
             tree = body_tree(
                 [
@@ -182,8 +181,9 @@ class CollisionChecker:
                     self.self_pairs.append((i, j))
                 else:
                     self.static_self_pairs.append((i, j))
-        self._pack(T_links)
+        self._pack()
         self._exact = None
+        self._full_exact = None
         self.static_collisions = self._static_collisions()
 
     @staticmethod
@@ -200,7 +200,7 @@ class CollisionChecker:
         return False
 
     # ------------------------------------------------------------------ packing for the kernel
-    def _pack(self, T_links: NDArray[np.float64]) -> None:
+    def _pack(self) -> None:
         robot, group = self.robot, self.group
         bodies = self.bodies
         link_idx = np.array([robot.link_index(b.link) for b in bodies], dtype=np.int64)
@@ -281,14 +281,8 @@ class CollisionChecker:
                     f"{obj.id}#{k}", 0, 0, pin.SE3(self._T_root_world @ T), coal_geometry(shape)
                 )
                 obs_geoms.append(gm.addGeometryObject(go))
-        for bi, oi in self.world_pairs:
-            for g in geoms_of.get(self.bodies[bi].name, []):
-                gm.addCollisionPair(pin.CollisionPair(g, obs_geoms[oi]))
-        for i, j in self.self_pairs:
-            for ga in geoms_of.get(self.bodies[i].name, []):
-                for gb in geoms_of.get(self.bodies[j].name, []):
-                    gm.addCollisionPair(pin.CollisionPair(ga, gb))
         self._geoms_of, self._obs_geoms = geoms_of, obs_geoms
+        self._add_pairs(gm, self.world_pairs, self.self_pairs)
         pool = exact_pool(pm, gm, self.exact_threads)
         self._exact = (gm, exact_data(gm), pm.createData(), pool)
         return self._exact
@@ -313,9 +307,12 @@ class CollisionChecker:
             pin.computeCollisionsInParallel(self.exact_threads, pool, Q, True), dtype=bool
         )
 
-    def classify(self, qs: ArrayLike) -> tuple[NDArray[np.int8], NDArray[np.bool_]]:
+    def classify(
+        self, qs: ArrayLike, pair_flags: bool = True
+    ) -> tuple[NDArray[np.int8], NDArray[np.bool_]]:
         """The sphere level alone: (N,) int8 (0 free, 1 colliding, 2 unsure) and (N, P) flags
-        of the unsure pairs (world pairs, then self pairs)."""
+        of the unsure pairs (world pairs, then self pairs). ``pair_flags=False`` skips the
+        flags (an empty array): ``check`` does not need them."""
         q = self.group.as_joint_batch(qs)
         a = self._args
         return K.classify(
@@ -340,6 +337,7 @@ class CollisionChecker:
             self._obs_inner_ok,
             self._world_pairs,
             self._self_pairs,
+            pair_flags,
             64,
         )
 
@@ -348,7 +346,7 @@ class CollisionChecker:
         q = self.group.as_joint_batch(qs)
         if self.static_collisions:
             return np.ones(q.shape[0], dtype=bool)
-        cls, _ = self.classify(q)
+        cls, _ = self.classify(q, pair_flags=False)
         out = cls == K.HIT
         unsure = np.flatnonzero(cls == K.UNSURE)
         if len(unsure):
@@ -447,11 +445,24 @@ class CollisionChecker:
         cp = gm.collisionPairs[k]
         return float(d[k]), (self._geom_owner[cp.first], self._geom_owner[cp.second])
 
+    def _add_pairs(
+        self, gm: Any, world_pairs: list[tuple[int, int]], self_pairs: list[tuple[int, int]]
+    ) -> None:
+        """Add to ``gm`` the geometry pairs of these (body, obstacle) and (body, body) pairs."""
+        import pinocchio as pin
+
+        for bi, oi in world_pairs:
+            for g in self._geoms_of.get(self.bodies[bi].name, []):
+                gm.addCollisionPair(pin.CollisionPair(g, self._obs_geoms[oi]))
+        for i, j in self_pairs:
+            for ga in self._geoms_of.get(self.bodies[i].name, []):
+                for gb in self._geoms_of.get(self.bodies[j].name, []):
+                    gm.addCollisionPair(pin.CollisionPair(ga, gb))
+
     def _full_exact_model(self):  # type: ignore[no-untyped-def]
         """Like the exact model, with the static pairs too (for queries, not hot paths)."""
-        if getattr(self, "_full_exact", None) is not None:
+        if self._full_exact is not None:
             return self._full_exact
-        import pinocchio as pin
 
         gm0, _, _, _ = self._exact_model()
         gm = gm0.copy()
@@ -463,12 +474,8 @@ class CollisionChecker:
         for oi, g in enumerate(self._obs_geoms):
             owner[g] = self.obstacles[oi].object_id
         self._geom_owner = owner
-        for bi, oi in self.world_pairs + self.static_world_pairs:
-            for g in self._geoms_of.get(self.bodies[bi].name, []):
-                gm.addCollisionPair(pin.CollisionPair(g, self._obs_geoms[oi]))
-        for i, j in self.self_pairs + self.static_self_pairs:
-            for ga in self._geoms_of.get(self.bodies[i].name, []):
-                for gb in self._geoms_of.get(self.bodies[j].name, []):
-                    gm.addCollisionPair(pin.CollisionPair(ga, gb))
+        self._add_pairs(
+            gm, self.world_pairs + self.static_world_pairs, self.self_pairs + self.static_self_pairs
+        )
         self._full_exact = (gm, exact_data(gm), self.robot.pin_model.createData(), None)
         return self._full_exact

@@ -55,10 +55,6 @@ class SphereTree:
     def leaves(self) -> NDArray[np.float64]:
         return self.nodes[self.left < 0]
 
-    @property
-    def bounding(self) -> NDArray[np.float64]:
-        return self.nodes[0] if len(self.nodes) else np.zeros(4)
-
 
 # ---------------------------------------------------------------------------------- leaves
 @njit(cache=True)
