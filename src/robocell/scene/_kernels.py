@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numba
 from numba import njit, prange
 
 from robocell.kinematics._kernels import fk_into
@@ -205,6 +206,95 @@ def _classify_state(  # type: ignore[no-untyped-def]
     return UNSURE if unsure else FREE
 
 
+@njit(cache=True)
+def _classify_range(  # type: ignore[no-untyped-def]
+    s0,
+    s1,
+    qs,
+    group_idx,
+    q_base,
+    joints,
+    root,
+    parent,
+    child,
+    origin,
+    jtype,
+    axis,
+    var,
+    mult,
+    offset,
+    body_link,
+    body_T,
+    body_root,
+    nodes,
+    left,
+    right,
+    inner_start,
+    inner,
+    obs_kind,
+    obs_T,
+    obs_dims,
+    obs_inner_ok,
+    world_pairs,
+    self_pairs,
+    W,
+    stamp,
+    Wi,
+    stamp_i,
+    T,
+    epoch,
+    flags,
+    record_flags,
+    scratch_row,
+    out,
+):
+    """Classify states s0..s1-1 with one thread's scratch (W, stamp, Wi, stamp_i, T).
+    Stamps hold ``epoch + s`` for the state that last placed a sphere, so the scratch is
+    reused across calls without being reset."""
+    B = body_link.shape[0]
+    TB = np.empty((B, 3, 4))
+    q = q_base.copy()
+    stack = np.empty(256, np.int64)
+    stack2 = np.empty((512, 2), np.int64)
+    for s in range(s0, s1):
+        for i in range(group_idx.shape[0]):
+            q[group_idx[i]] = qs[s, i]
+        fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
+        for b in range(B):
+            L = T[body_link[b]]
+            for i in range(3):
+                for j in range(4):
+                    TB[b, i, j] = (
+                        L[i, 0] * body_T[b, 0, j]
+                        + L[i, 1] * body_T[b, 1, j]
+                        + L[i, 2] * body_T[b, 2, j]
+                        + (L[i, 3] if j == 3 else 0.0)
+                    )
+        out[s] = _classify_state(
+            TB,
+            body_root,
+            nodes,
+            left,
+            right,
+            inner_start,
+            inner,
+            obs_kind,
+            obs_T,
+            obs_dims,
+            obs_inner_ok,
+            world_pairs,
+            self_pairs,
+            W,
+            stamp,
+            Wi,
+            stamp_i,
+            epoch + s,
+            stack,
+            stack2,
+            flags[s] if record_flags else scratch_row,
+        )
+
+
 @njit(cache=True, parallel=True)
 def classify(  # type: ignore[no-untyped-def]
     qs,
@@ -220,7 +310,6 @@ def classify(  # type: ignore[no-untyped-def]
     var,
     mult,
     offset,
-    n_links,
     body_link,
     body_T,
     body_root,
@@ -235,66 +324,42 @@ def classify(  # type: ignore[no-untyped-def]
     obs_inner_ok,
     world_pairs,
     self_pairs,
+    W,
+    stamp,
+    Wi,
+    stamp_i,
+    T,
+    epoch,
     record_flags,
     chunk,
 ):
     """(N,) int8 FREE/HIT/UNSURE for (N, dof) group configurations, and (N, P) flags of the
-    unsure pairs of each unsure state ((0, P) unless ``record_flags``: a scratch row per chunk
-    then takes the writes)."""
+    unsure pairs of each unsure state ((0, P) unless ``record_flags``).
+
+    W, stamp, Wi, stamp_i, T are per-thread scratch (leading axis: thread slot), kept by the
+    caller between calls: allocating them per call cost more than classifying a few states.
+    One chunk runs serially in the calling thread; more are spread over the threads."""
     N = qs.shape[0]
     out = np.empty(N, np.int8)
     P = world_pairs.shape[0] + self_pairs.shape[0]
     n_chunks = (N + chunk - 1) // chunk
     flags = np.zeros((N if record_flags else 0, P), np.bool_)
-    scratch = np.zeros((0 if record_flags else n_chunks, P), np.bool_)
-    M = max(nodes.shape[0], 1)
-    K = max(inner.shape[0], 1)
-    B = body_link.shape[0]
+    scratch = np.zeros((W.shape[0], 0 if record_flags else P), np.bool_)
+    if n_chunks <= 1:
+        _classify_range(
+            0, N, qs, group_idx, q_base, joints, root, parent, child, origin, jtype, axis,
+            var, mult, offset, body_link, body_T, body_root, nodes, left, right, inner_start,
+            inner, obs_kind, obs_T, obs_dims, obs_inner_ok, world_pairs, self_pairs, W[0],
+            stamp[0], Wi[0], stamp_i[0], T[0], epoch, flags, record_flags, scratch[0], out,
+        )
+        return out, flags
     for c in prange(n_chunks):
-        T = np.empty((n_links, 4, 4))
-        TB = np.empty((B, 3, 4))
-        q = q_base.copy()
-        W = np.empty((M, 3))
-        stamp = np.full(M, -1, np.int64)
-        Wi = np.empty((K, 3))
-        stamp_i = np.full(K, -1, np.int64)
-        stack = np.empty(256, np.int64)
-        stack2 = np.empty((512, 2), np.int64)
-        for s in range(c * chunk, min(N, (c + 1) * chunk)):
-            for i in range(group_idx.shape[0]):
-                q[group_idx[i]] = qs[s, i]
-            fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
-            for b in range(B):
-                L = T[body_link[b]]
-                for i in range(3):
-                    for j in range(4):
-                        TB[b, i, j] = (
-                            L[i, 0] * body_T[b, 0, j]
-                            + L[i, 1] * body_T[b, 1, j]
-                            + L[i, 2] * body_T[b, 2, j]
-                            + (L[i, 3] if j == 3 else 0.0)
-                        )
-            out[s] = _classify_state(
-                TB,
-                body_root,
-                nodes,
-                left,
-                right,
-                inner_start,
-                inner,
-                obs_kind,
-                obs_T,
-                obs_dims,
-                obs_inner_ok,
-                world_pairs,
-                self_pairs,
-                W,
-                stamp,
-                Wi,
-                stamp_i,
-                s,
-                stack,
-                stack2,
-                flags[s] if record_flags else scratch[c],
-            )
+        t = numba.get_thread_id()
+        _classify_range(
+            c * chunk, min(N, (c + 1) * chunk), qs, group_idx, q_base, joints, root, parent,
+            child, origin, jtype, axis, var, mult, offset, body_link, body_T, body_root, nodes,
+            left, right, inner_start, inner, obs_kind, obs_T, obs_dims, obs_inner_ok,
+            world_pairs, self_pairs, W[t], stamp[t], Wi[t], stamp_i[t], T[t], epoch, flags,
+            record_flags, scratch[t], out,
+        )
     return out, flags

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -241,6 +242,17 @@ class CollisionChecker:
         moving_links = sorted({int(x) for x in link_idx})
         self._joints = args.joints_to(*moving_links)
         self._group_idx = group.indices.astype(np.int64)
+        # per-thread scratch of the kernel, kept between calls (see K.classify)
+        slots = numba.config.NUMBA_NUM_THREADS
+        m, k = max(len(self._nodes), 1), max(len(self._inner), 1)
+        self._scratch = (
+            np.empty((slots, m, 3)),
+            np.full((slots, m), -1, np.int64),
+            np.empty((slots, k, 3)),
+            np.full((slots, k), -1, np.int64),
+            np.empty((slots, args.n_links, 4, 4)),
+        )
+        self._epoch = 0
 
     # ------------------------------------------------------------------ exact level
     def _exact_model(self):  # type: ignore[no-untyped-def]
@@ -315,14 +327,15 @@ class CollisionChecker:
         flags (an empty array): ``check`` does not need them."""
         q = self.group.as_joint_batch(qs)
         a = self._args
-        return K.classify(
+        epoch = self._epoch
+        self._epoch += q.shape[0]
+        return K.classify(  # type: ignore[no-any-return]
             q,
             self._group_idx,
             self.base_positions,
             self._joints,
             a.root,
             *a.arrays,
-            a.n_links,
             self._body_link,
             self._body_T,
             self._body_root,
@@ -337,6 +350,8 @@ class CollisionChecker:
             self._obs_inner_ok,
             self._world_pairs,
             self._self_pairs,
+            *self._scratch,
+            epoch,
             pair_flags,
             64,
         )
