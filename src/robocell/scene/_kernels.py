@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import numba
+import numpy as np
 from numba import njit, prange
 
 from robocell.kinematics._kernels import fk_into
