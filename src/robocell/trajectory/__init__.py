@@ -1,0 +1,17 @@
+"""Trajectories: joint trajectories, blended joint-space paths and time parameterization
+(time-optimal TOPP-RA, synchronized PTP, jerk-limited ruckig), plotting."""
+
+from robocell.trajectory.path import BlendedPath
+from robocell.trajectory.timing import jerk_limited, ptp, time_optimal, trapezoid_profile
+from robocell.trajectory.trajectory import JointTrajectory, TrajectorySample, stationary
+
+__all__ = [
+    "BlendedPath",
+    "JointTrajectory",
+    "TrajectorySample",
+    "jerk_limited",
+    "ptp",
+    "stationary",
+    "time_optimal",
+    "trapezoid_profile",
+]

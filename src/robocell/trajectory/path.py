@@ -1,0 +1,192 @@
+"""Geometric paths in joint space: a polyline whose corners are rounded by circular arcs of
+bounded deviation (as MoveIt's time-optimal parameterization, Kunz & Stilman 2012, does).
+
+The path is parameterized by arc length ``s`` [rad] (Euclidean in joint space) and gives exact
+first and second derivatives, which is what a time-optimal parameterization needs: at a sharp
+corner the speed must drop to zero, at a rounded one it need not.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from toppra.interpolator import AbstractGeometricPath
+
+from robocell.errors import PlanningError
+
+
+class BlendedPath(AbstractGeometricPath):  # type: ignore[misc]
+    """Straight segments between ``waypoints`` (K, dof), each interior corner replaced by a
+    circular arc that stays within ``max_deviation`` [rad] of the corner and uses at most half
+    of each neighbouring segment. ``max_deviation=0`` keeps the sharp corners (the motion
+    then stops at each)."""
+
+    def __init__(self, waypoints: ArrayLike, max_deviation: float = 0.05) -> None:
+        wp = np.asarray(waypoints, dtype=float)
+        if wp.ndim != 2 or wp.shape[0] < 2:
+            raise PlanningError(f"a path needs (K >= 2, dof) waypoints, got shape {wp.shape}")
+        # drop repeated waypoints: they have no direction
+        keep = np.concatenate([[True], np.linalg.norm(np.diff(wp, axis=0), axis=1) > 1e-9])
+        wp = wp[keep]
+        if wp.shape[0] < 2:
+            wp = np.vstack([wp, wp])
+        self._wp = wp
+        self._dof = wp.shape[1]
+        # segments: ("line", p0, u, length) or ("arc", centre, e1, e2, radius, angle)
+        kinds: list[int] = []
+        data: list[tuple[NDArray[np.float64], ...]] = []
+        lengths: list[float] = []
+        n = wp.shape[0]
+        d = np.diff(wp, axis=0)
+        seg_len = np.linalg.norm(d, axis=1)
+        u = d / np.maximum(seg_len, 1e-300)[:, None]
+        # trim at each interior corner
+        trim = np.zeros(n)
+        arcs: dict[int, tuple[NDArray[np.float64], ...]] = {}
+        for i in range(1, n - 1):
+            u1, u2 = u[i - 1], u[i]
+            cos_a = float(np.clip(u1 @ u2, -1.0, 1.0))
+            alpha = math.acos(cos_a)  # turning angle
+            if alpha < 1e-9 or max_deviation <= 0 or seg_len[i - 1] < 1e-12 or seg_len[i] < 1e-12:
+                continue
+            if alpha > math.pi - 1e-6:
+                continue  # a reversal cannot be rounded; the motion stops there
+            half = 0.5 * alpha
+            # deviation of the arc's midpoint from the corner: r (1/cos(half) - 1)
+            r = max_deviation * math.cos(half) / (1.0 - math.cos(half))
+            ell = r * math.tan(half)
+            ell = min(ell, 0.5 * seg_len[i - 1], 0.5 * seg_len[i])
+            r = ell / math.tan(half)
+            if ell < 1e-9:
+                continue
+            trim[i] = ell
+            x = u2 - u1
+            x /= np.linalg.norm(x)
+            centre = wp[i] + x * (r / math.cos(half))
+            start = wp[i] - ell * u1
+            e1 = (start - centre) / r
+            arcs[i] = (centre, e1, u1.copy(), np.array([r]), np.array([alpha]))
+        for k in range(n - 1):
+            a = wp[k] + trim[k] * u[k] if k > 0 else wp[k]
+            length = seg_len[k] - (trim[k] if k > 0 else 0.0) - (trim[k + 1] if k + 1 < n else 0)
+            if length > 1e-12 or not lengths:
+                kinds.append(0)
+                data.append((a, u[k], np.array([max(length, 0.0)])))
+                lengths.append(max(length, 0.0))
+            if k + 1 in arcs:
+                centre, e1, e2, r_, al = arcs[k + 1]
+                kinds.append(1)
+                data.append(arcs[k + 1])
+                lengths.append(float(r_[0] * al[0]))
+        self._kinds = np.array(kinds)
+        self._data = data
+        self._starts = np.concatenate([[0.0], np.cumsum(lengths)])
+        self._length = float(self._starts[-1])
+        # boundaries where the curvature jumps: a time parameterization needs a gridpoint there
+        self.breakpoints = self._starts.copy()
+        # corners left sharp (reversals, or no rounding asked): the motion must stop there
+        self.stops = [
+            float(self._starts[k + 1])
+            for k in range(len(kinds) - 1)
+            if kinds[k] == 0 and kinds[k + 1] == 0
+        ]
+
+    def grid(self, step: float, arc_pieces: int = 12) -> NDArray[np.float64]:
+        """Gridpoints for a time parameterization: every ``step`` [rad] on lines, and
+        ``arc_pieces`` per arc (the acceleration a curve needs changes fast along it)."""
+        # a gridpoint just before each breakpoint too: the path is evaluated right-sided at a
+        # breakpoint, and the curvature of the stretch that ends there must be seen as well
+        pts = [self.breakpoints, np.maximum(self.breakpoints[1:-1] - 1e-6, 0.0)]
+        for k in range(len(self._kinds)):
+            a, b = self._starts[k], self._starts[k + 1]
+            n = arc_pieces if self._kinds[k] == 1 else max(1, int(math.ceil((b - a) / step)))
+            pts.append(np.linspace(a, b, n + 1))
+        return np.unique(np.concatenate(pts))
+
+    def split_at_stops(self) -> list[tuple[float, float]]:
+        """[s0, s1] intervals between the sharp corners."""
+        bounds = [0.0, *self.stops, self._length]
+        return [(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if b - a > 1e-12]
+
+    @property
+    def dof(self) -> int:
+        return self._dof
+
+    @property
+    def path_interval(self) -> NDArray[np.float64]:
+        return np.array([0.0, self._length])
+
+    @property
+    def length(self) -> float:
+        """Arc length [rad] in joint space."""
+        return self._length
+
+    @property
+    def waypoints(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self.breakpoints, self(self.breakpoints)
+
+    def __call__(self, path_positions: ArrayLike, order: int = 0) -> NDArray[np.float64]:
+        s = np.asarray(path_positions, dtype=float)
+        scalar = s.ndim == 0
+        ss = np.clip(np.atleast_1d(s), 0.0, self._length)
+        out = np.empty((ss.shape[0], self._dof))
+        seg = np.clip(np.searchsorted(self._starts, ss, side="right") - 1, 0, len(self._kinds) - 1)
+        for k in np.unique(seg):
+            m = seg == k
+            local = (ss[m] - self._starts[k])[:, None]
+            if self._kinds[k] == 0:
+                p0, u, _ = self._data[k]
+                if order == 0:
+                    out[m] = p0 + local * u
+                elif order == 1:
+                    out[m] = u
+                else:
+                    out[m] = 0.0
+            else:
+                c, e1, e2, r, _ = self._data[k]
+                th = local / r[0]
+                cos_t, sin_t = np.cos(th), np.sin(th)
+                if order == 0:
+                    out[m] = c + r[0] * (cos_t * e1 + sin_t * e2)
+                elif order == 1:
+                    out[m] = -sin_t * e1 + cos_t * e2
+                else:
+                    out[m] = (-cos_t * e1 - sin_t * e2) / r[0]
+        return out[0] if scalar else out
+
+    def sample_states(self, resolution: float) -> NDArray[np.float64]:
+        """Points along the path (M, dof), consecutive ones at most ``resolution`` apart in
+        every joint (a collision check of the path checks these)."""
+        # per segment, the fastest joint's rate |dq_j/ds| sets the step in s
+        ss = [self.breakpoints]
+        for k in range(len(self._kinds)):
+            a, b = self._starts[k], self._starts[k + 1]
+            if self._kinds[k] == 0:
+                rate = float(np.max(np.abs(self._data[k][1])))
+            else:
+                _, e1, e2, _, _ = self._data[k]
+                rate = float(np.max(np.hypot(e1, e2)))
+            n = max(1, int(math.ceil((b - a) * rate / resolution)))
+            ss.append(np.linspace(a, b, n + 1))
+        return self(np.unique(np.concatenate(ss)))
+
+
+class SubPath(AbstractGeometricPath):  # type: ignore[misc]
+    """The stretch [s0, s1] of a path, re-parameterized to start at 0."""
+
+    def __init__(self, path: BlendedPath, s0: float, s1: float) -> None:
+        self.path, self.s0, self.s1 = path, s0, s1
+
+    @property
+    def dof(self) -> int:
+        return self.path.dof
+
+    @property
+    def path_interval(self) -> NDArray[np.float64]:
+        return np.array([0.0, self.s1 - self.s0])
+
+    def __call__(self, path_positions: ArrayLike, order: int = 0) -> NDArray[np.float64]:
+        s = np.clip(np.asarray(path_positions, dtype=float), 0.0, self.s1 - self.s0)
+        return self.path(s + self.s0, order)

@@ -1,0 +1,317 @@
+"""Time parameterization: time-optimal along a path (TOPP-RA), synchronized point-to-point
+(trapezoidal, as Pilz's PTP; or jerk-limited through ruckig).
+
+Every function returns a :class:`JointTrajectory` that starts and ends at rest and whose
+samples have been checked against the limits (scaled by MoveIt's velocity and acceleration
+scaling factors). A profile that the check finds over a limit by rounding is slowed down
+uniformly until it is within; it is never returned over a limit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robocell.errors import PlanningError
+from robocell.robot.model import JointGroup
+from robocell.trajectory.path import BlendedPath, SubPath
+from robocell.trajectory.trajectory import JointTrajectory, stationary
+
+KNOT_DT = 0.004  # [s] knot spacing of generated trajectories (250 Hz, a servo rate)
+
+
+def _scaling(value: float, name: str) -> float:
+    if not (isinstance(value, int | float) and 0.0 < value <= 1.0):
+        raise PlanningError(f"{name} must be in (0, 1], got {value!r}")
+    return float(value)
+
+
+def _limits(
+    group: JointGroup, velocity_scaling: float, acceleration_scaling: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    vs = _scaling(velocity_scaling, "velocity scaling factor")
+    as_ = _scaling(acceleration_scaling, "acceleration scaling factor")
+    return group.velocity * vs, group.acceleration * as_
+
+
+def fit_to_limits(
+    traj: JointTrajectory, v_max: NDArray[np.float64], a_max: NDArray[np.float64]
+) -> JointTrajectory:
+    """``traj`` slowed down uniformly (if needed) so that it is within the limits at its knots
+    and between them (sampled four times per knot interval)."""
+    if len(traj) < 2:
+        return traj
+    t = traj.times
+    dense = np.concatenate([t, (t[:-1, None] + np.diff(t)[:, None] * [0.25, 0.5, 0.75]).ravel()])
+    smp = traj.sample(dense)
+    rv = float(np.max(np.abs(smp.velocities) / v_max))
+    ra = float(np.max(np.abs(smp.accelerations) / a_max))
+    k = max(rv, math.sqrt(ra), 1.0)
+    if k > 1.0:
+        traj = traj.scaled(k * (1.0 + 1e-9))
+        traj.info["slowed_by"] = k
+    return traj
+
+
+def time_optimal(
+    group: JointGroup,
+    path: ArrayLike | BlendedPath,
+    velocity_scaling: float = 1.0,
+    acceleration_scaling: float = 1.0,
+    max_deviation: float = 0.05,
+    grid_step: float = 0.04,
+    dt: float = KNOT_DT,
+) -> JointTrajectory:
+    """Time-optimal trajectory along ``path`` (waypoints (K, dof) or a :class:`BlendedPath`)
+    under the group's joint velocity and acceleration limits, from rest to rest (TOPP-RA).
+
+    Waypoint corners are rounded within ``max_deviation`` [rad] (0: stop at each corner);
+    ``grid_step`` [rad of path] sets TOPP-RA's grid (plus every segment boundary).
+    """
+    import toppra as ta
+    import toppra.algorithm as algo
+    import toppra.constraint as constraint
+
+    ta.setup_logging("WARNING")
+    v_max, a_max = _limits(group, velocity_scaling, acceleration_scaling)
+    if isinstance(path, BlendedPath):
+        bp = path
+    else:
+        wp = np.asarray(path, dtype=float)
+        if wp.ndim != 2 or wp.shape[1] != group.dof or not np.all(np.isfinite(wp)):
+            raise PlanningError(
+                f"a path for group {group.name!r} must be finite (K, {group.dof}) waypoints, "
+                f"got shape {wp.shape}"
+            )
+        if wp.shape[0] == 1 or np.allclose(wp, wp[0], atol=1e-12):
+            return stationary(group, wp[0])
+        bp = BlendedPath(wp, max_deviation)
+    if bp.length < 1e-9:
+        return stationary(group, bp(0.0))
+    pieces = []
+    for s0, s1 in bp.split_at_stops():
+        grid = bp.grid(grid_step)
+        grid = np.union1d(grid[(grid > s0) & (grid < s1)], [s0, s1])
+        pieces.append(_toppra_piece(group, bp, grid, v_max, a_max, dt))
+    traj = pieces[0]
+    for p in pieces[1:]:
+        traj = traj.then(p)
+    traj = fit_to_limits(traj, v_max, a_max)
+    traj.info["path_length"] = bp.length
+    return traj
+
+
+def _toppra_piece(
+    group: JointGroup,
+    bp: BlendedPath,
+    grid: NDArray[np.float64],
+    v_max: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    dt: float,
+) -> JointTrajectory:
+    """TOPP-RA from rest to rest over the smooth stretch ``grid`` of ``bp``."""
+    import toppra.algorithm as algo
+    import toppra.constraint as constraint
+
+    instance = algo.TOPPRA(
+        [
+            constraint.JointVelocityConstraint(v_max),
+            constraint.JointAccelerationConstraint(
+                a_max, discretization_scheme=constraint.DiscretizationType.Interpolation
+            ),
+        ],
+        SubPath(bp, grid[0], grid[-1]),
+        gridpoints=grid - grid[0],
+        parametrizer="ParametrizeConstAccel",
+    )
+    timed = instance.compute_trajectory(0.0, 0.0)
+    if timed is None:
+        raise PlanningError(
+            f"time parameterization failed for group {group.name!r} on the path stretch "
+            f"[{grid[0]:.3f}, {grid[-1]:.3f}] rad"
+        )
+    # Knots from the exact profile: s̈ is constant on each grid interval, so each interval
+    # is cut into knot intervals ≤ dt and the accelerations at both ends of each are taken
+    # from inside it (the joint accelerations jump where s̈ or the path's curvature does).
+    g_s = np.asarray(timed._ss) + grid[0]
+    g_sd = np.asarray(timed._velocities)
+    g_t = np.asarray(timed._ts)
+    g_u = np.asarray(timed._us)
+    ts_l, s_l, sd_l, u_l, iv_l = [], [], [], [], []
+    for i in range(len(g_t) - 1):
+        h = g_t[i + 1] - g_t[i]
+        m = max(1, int(math.ceil(h / dt)))
+        tau = np.linspace(0.0, h, m + 1)[:-1]
+        ts_l.append(g_t[i] + tau)
+        s_l.append(g_s[i] + g_sd[i] * tau + 0.5 * g_u[i] * tau**2)
+        sd_l.append(g_sd[i] + g_u[i] * tau)
+        u_l.append(np.full(m, g_u[i]))
+        iv_l.append(np.full(m, i))
+    ts = np.concatenate([*ts_l, g_t[-1:]]) - g_t[0]
+    ss = np.clip(np.concatenate([*s_l, g_s[-1:]]), grid[0], grid[-1])
+    sd = np.concatenate([*sd_l, [0.0]])
+    u = np.concatenate(u_l)  # per knot interval
+    eps = 1e-12
+    q = bp(ss)
+    dq_r, ddq_r = (
+        bp(np.minimum(ss[:-1] + eps, grid[-1]), 1),
+        bp(np.minimum(ss[:-1] + eps, grid[-1]), 2),
+    )
+    dq_l, ddq_l = bp(np.maximum(ss[1:] - eps, grid[0]), 1), bp(np.maximum(ss[1:] - eps, grid[0]), 2)
+    acc_start = ddq_r * sd[:-1, None] ** 2 + dq_r * u[:, None]
+    acc_end = ddq_l * sd[1:, None] ** 2 + dq_l * u[:, None]
+    vel = np.vstack([dq_r * sd[:-1, None], np.zeros((1, bp.dof))])
+    acc = np.vstack([acc_start, acc_end[-1:]])
+    traj = JointTrajectory(
+        list(group.joint_names),
+        ts,
+        q,
+        vel,
+        acc,
+        group.name,
+        segment_accelerations=np.stack([acc_start, acc_end], axis=1),
+    )
+    return traj
+
+
+def _trapezoid(distance: float, v: float, a: float) -> tuple[float, float, float]:
+    """(duration, cruise speed, acceleration time) of the fastest rest-to-rest trapezoid."""
+    if distance <= 0:
+        return 0.0, 0.0, 0.0
+    t_acc = v / a
+    if a * t_acc * t_acc >= distance:  # no cruise: a triangle
+        t_acc = math.sqrt(distance / a)
+        return 2.0 * t_acc, a * t_acc, t_acc
+    return 2.0 * t_acc + (distance - a * t_acc * t_acc) / v, v, t_acc
+
+
+def trapezoid_profile(
+    distance: float, v: float, a: float, dt: float = KNOT_DT
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Times and s, ṡ, s̈ of the fastest rest-to-rest trapezoid over ``distance``."""
+    T, vc, ta = _trapezoid(distance, v, a)
+    acc = vc / ta if ta > 0 else 0.0
+    n = max(2, int(math.ceil(T / dt)) + 1)
+    t = np.linspace(0.0, T, n)
+    s = np.empty(n)
+    sd = np.empty(n)
+    sdd = np.empty(n)
+    up = t < ta
+    down = t > T - ta
+    mid = ~(up | down)
+    s[up] = 0.5 * acc * t[up] ** 2
+    sd[up] = acc * t[up]
+    sdd[up] = acc
+    s[mid] = 0.5 * acc * ta * ta + vc * (t[mid] - ta)
+    sd[mid] = vc
+    sdd[mid] = 0.0
+    r = T - t[down]
+    s[down] = distance - 0.5 * acc * r**2
+    sd[down] = acc * r
+    sdd[down] = -acc
+    s[-1], sd[-1] = distance, 0.0
+    return t, s, sd, sdd
+
+
+def ptp(
+    group: JointGroup,
+    q_start: ArrayLike,
+    q_goal: ArrayLike,
+    velocity_scaling: float = 1.0,
+    acceleration_scaling: float = 1.0,
+    jerk_limited: bool = False,
+    dt: float = KNOT_DT,
+) -> JointTrajectory:
+    """Point-to-point move (Pilz PTP): a straight line in joint space, all joints starting and
+    arriving together, as fast as the slowest joint allows. Trapezoidal velocity by default;
+    ``jerk_limited`` uses ruckig with the group's jerk limits (phase-synchronized, so the path
+    stays the straight line)."""
+    a = group.as_joint_vector(q_start, "PTP start")
+    b = group.as_joint_vector(q_goal, "PTP goal")
+    for q, what in ((a, "start"), (b, "goal")):
+        bad = group.limit_violations(q)
+        if bad:
+            raise PlanningError(f"PTP {what} is outside the joint limits: {'; '.join(bad)}")
+    v_max, a_max = _limits(group, velocity_scaling, acceleration_scaling)
+    d = b - a
+    if np.max(np.abs(d)) < 1e-12:
+        return stationary(group, a)
+    if jerk_limited:
+        return fit_to_limits(_ruckig_ptp(group, a, b, v_max, a_max, dt), v_max, a_max)
+    # along s ∈ [0, 1]: q = a + s d; joint j limits ṡ ≤ v_j/|d_j| and s̈ ≤ a_j/|d_j|
+    moving = np.abs(d) > 1e-12
+    v_s = float(np.min(v_max[moving] / np.abs(d[moving])))
+    a_s = float(np.min(a_max[moving] / np.abs(d[moving])))
+    t, s, sd, sdd = trapezoid_profile(1.0, v_s, a_s, dt)
+    traj = JointTrajectory(
+        list(group.joint_names),
+        t,
+        a + s[:, None] * d,
+        sd[:, None] * d,
+        sdd[:, None] * d,
+        group.name,
+    )
+    traj.positions[-1] = b
+    return traj
+
+
+def _ruckig_ptp(
+    group: JointGroup,
+    a: NDArray[np.float64],
+    b: NDArray[np.float64],
+    v_max: NDArray[np.float64],
+    a_max: NDArray[np.float64],
+    dt: float,
+) -> JointTrajectory:
+    from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
+
+    n = group.dof
+    otg = Ruckig(n)
+    inp = InputParameter(n)
+    inp.current_position = a.tolist()
+    inp.current_velocity = [0.0] * n
+    inp.current_acceleration = [0.0] * n
+    inp.target_position = b.tolist()
+    inp.target_velocity = [0.0] * n
+    inp.target_acceleration = [0.0] * n
+    inp.max_velocity = v_max.tolist()
+    inp.max_acceleration = a_max.tolist()
+    inp.max_jerk = group.jerk.tolist()
+    inp.synchronization = Synchronization.Phase
+    out = Trajectory(n)
+    result = otg.calculate(inp, out)
+    if result not in (Result.Working, Result.Finished):
+        raise PlanningError(f"ruckig could not time the PTP move of {group.name!r}: {result}")
+    T = float(out.duration)
+    k = max(2, int(math.ceil(T / dt)) + 1)
+    ts = np.linspace(0.0, T, k)
+    states = [out.at_time(float(t)) for t in ts]
+    pos = np.array([s[0] for s in states])
+    vel = np.array([s[1] for s in states])
+    acc = np.array([s[2] for s in states])
+    pos[-1], vel[-1], acc[-1] = b, 0.0, 0.0
+    return JointTrajectory(list(group.joint_names), ts, pos, vel, acc, group.name)
+
+
+def jerk_limited(
+    group: JointGroup,
+    waypoints: ArrayLike,
+    velocity_scaling: float = 1.0,
+    acceleration_scaling: float = 1.0,
+    dt: float = KNOT_DT,
+) -> JointTrajectory:
+    """Jerk-limited trajectory through ``waypoints`` (K, dof): a ruckig PTP per segment, each
+    a straight line from rest to rest (the path is exactly the polyline)."""
+    wp = np.asarray(waypoints, dtype=float)
+    if wp.ndim != 2 or wp.shape[1] != group.dof:
+        raise PlanningError(f"waypoints must be (K, {group.dof}), got shape {wp.shape}")
+    traj = stationary(group, wp[0])
+    for a, b in zip(wp[:-1], wp[1:], strict=True):
+        if np.max(np.abs(b - a)) < 1e-12:
+            continue
+        traj = traj.then(
+            ptp(group, a, b, velocity_scaling, acceleration_scaling, jerk_limited=True, dt=dt)
+        )
+    return traj
