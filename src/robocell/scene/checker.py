@@ -243,7 +243,7 @@ class CollisionChecker:
         self._joints = args.joints_to(*moving_links)
         self._group_idx = group.indices.astype(np.int64)
         # per-thread scratch of the kernel, kept between calls (see K.classify)
-        slots = numba.config.NUMBA_NUM_THREADS
+        slots = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
         m, k = max(len(self._nodes), 1), max(len(self._inner), 1)
         self._scratch = (
             np.empty((slots, m, 3)),

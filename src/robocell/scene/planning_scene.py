@@ -214,6 +214,10 @@ class PlanningScene:
         others = np.delete(self.state.positions, g.indices)
         key = (g.name, self._version, self.acm.version, others.tobytes())
         if key not in self._checkers:
+            # a few checkers are kept (a gripper opening and closing switches between two);
+            # each holds its sphere model's scratch, so the oldest goes beyond eight
+            while len(self._checkers) >= 8:
+                self._checkers.pop(next(iter(self._checkers)))
             self._checkers[key] = CollisionChecker(self, g)
         return self._checkers[key]
 

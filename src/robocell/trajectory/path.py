@@ -87,21 +87,24 @@ class BlendedPath(AbstractGeometricPath):  # type: ignore[misc]
         # boundaries where the curvature jumps: a time parameterization needs a gridpoint there
         self.breakpoints = self._starts.copy()
         # corners left sharp (reversals, or no rounding asked): the motion must stop there
-        self.stops = [
+        self.stops = sorted(
             float(self._starts[k + 1])
             for k in range(len(kinds) - 1)
-            if kinds[k] == 0 and kinds[k + 1] == 0
-        ]
+            if kinds[k] == 0
+            and kinds[k + 1] == 0
+            and float(data[k][1] @ data[k + 1][1]) < 1.0 - 1e-12
+        )
 
     def grid(self, step: float, arc_pieces: int = 12) -> NDArray[np.float64]:
         """Gridpoints for a time parameterization: every ``step`` [rad] on lines, and
         ``arc_pieces`` per arc (the acceleration a curve needs changes fast along it)."""
         # a gridpoint just before each breakpoint too: the path is evaluated right-sided at a
         # breakpoint, and the curvature of the stretch that ends there must be seen as well
-        pts = [self.breakpoints, np.maximum(self.breakpoints[1:-1] - 1e-6, 0.0)]
+        arc_ends = self._starts[1:][self._kinds == 1]
+        pts = [self.breakpoints, np.maximum(arc_ends - 1e-6, 0.0)]
         for k in range(len(self._kinds)):
             a, b = self._starts[k], self._starts[k + 1]
-            n = arc_pieces if self._kinds[k] == 1 else max(1, int(math.ceil((b - a) / step)))
+            n = arc_pieces if self._kinds[k] == 1 else max(4, int(math.ceil((b - a) / step)))
             pts.append(np.linspace(a, b, n + 1))
         return np.unique(np.concatenate(pts))
 

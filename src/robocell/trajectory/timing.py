@@ -71,8 +71,6 @@ def time_optimal(
     ``grid_step`` [rad of path] sets TOPP-RA's grid (plus every segment boundary).
     """
     import toppra as ta
-    import toppra.algorithm as algo
-    import toppra.constraint as constraint
 
     ta.setup_logging("WARNING")
     v_max, a_max = _limits(group, velocity_scaling, acceleration_scaling)
@@ -131,6 +129,11 @@ def _toppra_piece(
         raise PlanningError(
             f"time parameterization failed for group {group.name!r} on the path stretch "
             f"[{grid[0]:.3f}, {grid[-1]:.3f}] rad"
+        )
+    if not np.isfinite(timed.duration):
+        raise PlanningError(
+            f"time parameterization of group {group.name!r} stalls on the path stretch "
+            f"[{grid[0]:.3f}, {grid[-1]:.3f}] rad (a corner too sharp to pass)"
         )
     # Knots from the exact profile: s̈ is constant on each grid interval, so each interval
     # is cut into knot intervals ≤ dt and the accelerations at both ends of each are taken

@@ -1,0 +1,345 @@
+"""MoveGroup: MoveIt's MoveGroupCommander on one group of a planning scene: targets, planning,
+execution through a controller, Cartesian paths, attached objects.
+
+    arm = MoveGroup(scene, "arm")
+    arm.set_named_target("home")
+    arm.go()
+    arm.set_pose_target(Pose.from_rpy(0.4, 0.0, 0.3, 0, math.pi, 0))
+    plan = arm.plan()
+    arm.execute(plan)
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robocell.errors import ExecutionError, PlanningError, choices
+from robocell.execution.controller import Controller, ExecutionHandle, KinematicController
+from robocell.geometry.pose import Pose
+from robocell.planning.cartesian import compute_cartesian_path, relative_pose
+from robocell.planning.planner import Planner, PlannerConfig
+from robocell.planning.request import (
+    Goal,
+    JointGoal,
+    MotionPlan,
+    MotionPlanRequest,
+    PoseGoal,
+    PositionGoal,
+)
+from robocell.scene.objects import AttachedObject, CollisionObject
+from robocell.scene.planning_scene import PlanningScene
+from robocell.trajectory.timing import time_optimal
+from robocell.trajectory.trajectory import JointTrajectory
+
+
+@dataclass
+class CartesianPlan:
+    """Result of :meth:`MoveGroup.compute_cartesian_path`. Unpacks as MoveIt's
+    ``(trajectory, fraction)``; ``reason`` says why ``fraction`` < 1."""
+
+    trajectory: JointTrajectory
+    fraction: float
+    reason: str = ""
+
+    def __iter__(self) -> Iterator[JointTrajectory | float]:
+        return iter((self.trajectory, self.fraction))
+
+
+class MoveGroup:
+    """One planning group of a scene's robot, with MoveIt's commander interface.
+
+    ``controller``: what executes (default: a :class:`KinematicController` on the scene's own
+    state, MoveIt's demo mode; ``time_scale`` 0 makes it jump to each trajectory's end).
+    """
+
+    def __init__(
+        self,
+        scene: PlanningScene,
+        group: str,
+        controller: Controller | None = None,
+        planner_config: PlannerConfig | None = None,
+        time_scale: float = 1.0,
+    ) -> None:
+        self.scene = scene
+        self.group = scene.robot.group(group)
+        self.planner = Planner(scene, planner_config)
+        self._lock = threading.Lock()
+        self.controller: Controller = controller or KinematicController(
+            self.group, scene.state.positions, time_scale=time_scale, lock=self._lock
+        )
+        self._goal: Goal | None = None
+        self._start: NDArray[np.float64] | None = None
+        self.planning_time = 1.0
+        self.attempts = 1
+        self.velocity_scaling = 1.0
+        self.acceleration_scaling = 1.0
+        self.joint_tolerance = 1e-4
+        self.position_tolerance = 1e-4
+        self.orientation_tolerance = 1e-3
+        self.planner_id = ""
+        self.end_effector_link = self.group.tip_link
+        self._handle: ExecutionHandle | None = None
+        self.seed: int | None = 0
+
+    # ------------------------------------------------------------------ state
+    def get_name(self) -> str:
+        return self.group.name
+
+    def get_active_joints(self) -> list[str]:
+        return list(self.group.joint_names)
+
+    def get_current_joint_values(self) -> NDArray[np.float64]:
+        """The group's joint values now [rad or m], in its joint order."""
+        return self.controller.current_positions()
+
+    def get_current_pose(self, link: str | None = None) -> Pose:
+        """Pose of ``link`` (default: the end-effector link) in the world frame, now."""
+        with self._lock:
+            return self.scene.link_pose(link or self.end_effector_link)
+
+    def get_named_targets(self) -> list[str]:
+        return sorted(self.group.named_states)
+
+    def get_named_target_values(self, name: str) -> dict[str, float]:
+        q = self.group.named(name)
+        return dict(zip(self.group.joint_names, q.tolist(), strict=True))
+
+    def set_end_effector_link(self, link: str) -> None:
+        self.scene.robot.link_index(link, "end-effector link")
+        self.end_effector_link = link
+
+    def get_end_effector_link(self) -> str:
+        return self.end_effector_link
+
+    # ------------------------------------------------------------------ settings
+    def set_planning_time(self, seconds: float) -> None:
+        if not seconds > 0:
+            raise PlanningError(f"planning time must be > 0 s, got {seconds}")
+        self.planning_time = float(seconds)
+
+    def set_num_planning_attempts(self, n: int) -> None:
+        if int(n) < 1:
+            raise PlanningError(f"number of planning attempts must be >= 1, got {n}")
+        self.attempts = int(n)
+
+    def set_max_velocity_scaling_factor(self, f: float) -> None:
+        if not 0 < f <= 1:
+            raise PlanningError(f"velocity scaling factor must be in (0, 1], got {f}")
+        self.velocity_scaling = float(f)
+
+    def set_max_acceleration_scaling_factor(self, f: float) -> None:
+        if not 0 < f <= 1:
+            raise PlanningError(f"acceleration scaling factor must be in (0, 1], got {f}")
+        self.acceleration_scaling = float(f)
+
+    def set_goal_tolerance(self, tolerance: float) -> None:
+        """Joint [rad], position [m] and orientation [rad] tolerance at once (as MoveIt)."""
+        self.set_goal_joint_tolerance(tolerance)
+        self.set_goal_position_tolerance(tolerance)
+        self.set_goal_orientation_tolerance(tolerance)
+
+    def set_goal_joint_tolerance(self, tolerance: float) -> None:
+        self.joint_tolerance = _positive(tolerance, "joint tolerance")
+
+    def set_goal_position_tolerance(self, tolerance: float) -> None:
+        self.position_tolerance = _positive(tolerance, "position tolerance")
+
+    def set_goal_orientation_tolerance(self, tolerance: float) -> None:
+        self.orientation_tolerance = _positive(tolerance, "orientation tolerance")
+
+    def set_planner_id(self, planner_id: str) -> None:
+        self.planner_id = planner_id
+
+    # ------------------------------------------------------------------ targets
+    def set_start_state(self, q: ArrayLike | None) -> None:
+        """Plan from ``q`` instead of the current state (None: the current state)."""
+        self._start = None if q is None else self.group.as_joint_vector(q, "start state")
+
+    def set_start_state_to_current_state(self) -> None:
+        self._start = None
+
+    def set_named_target(self, name: str) -> None:
+        self._goal = JointGoal(self.group.named(name), self.joint_tolerance)
+
+    def set_joint_value_target(self, q: ArrayLike | dict[str, float]) -> None:
+        """A joint goal: a vector in the group's order, or {joint name: value} (other joints
+        keep their current values)."""
+        if isinstance(q, dict):
+            target = self.get_current_joint_values()
+            for name, v in q.items():
+                if name not in self.group.joint_names:
+                    raise PlanningError(
+                        f"unknown joint {name!r} of group {self.group.name!r}; "
+                        f"known: {choices(self.group.joint_names)}"
+                    )
+                target[self.group.joint_names.index(name)] = float(v)
+        else:
+            target = self.group.as_joint_vector(q, "joint target")
+        bad = self.group.limit_violations(target)
+        if bad:
+            raise PlanningError(f"joint target outside the limits: {'; '.join(bad)}")
+        self._goal = JointGoal(target, self.joint_tolerance)
+
+    def set_pose_target(self, pose: Pose | ArrayLike, link: str | None = None) -> None:
+        """A pose goal for ``link`` (default: the end-effector link), world frame."""
+        p = pose if isinstance(pose, Pose) else Pose.from_any(pose)
+        link = link or self.end_effector_link
+        self.scene.robot.link_index(link, "pose target link")
+        self._goal = PoseGoal(link, p, self.position_tolerance, self.orientation_tolerance)
+
+    def set_position_target(self, xyz: ArrayLike, link: str | None = None) -> None:
+        """A position-only goal for ``link`` (any orientation), world frame [m]."""
+        p = np.asarray(xyz, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise PlanningError(f"a position target needs 3 finite numbers, got {xyz!r}")
+        link = link or self.end_effector_link
+        self.scene.robot.link_index(link, "position target link")
+        self._goal = PositionGoal(link, p, self.position_tolerance)
+
+    def clear_pose_targets(self) -> None:
+        self._goal = None
+
+    # ------------------------------------------------------------------ plan and move
+    def plan(self, fix_start: bool = False) -> MotionPlan:
+        """Plan from the start state (default: current) to the target set last."""
+        if self._goal is None:
+            raise PlanningError(
+                "no target: call set_named_target, set_joint_value_target, set_pose_target "
+                "or set_position_target first"
+            )
+        request = MotionPlanRequest(
+            group=self.group.name,
+            goal=self._goal,
+            start=self._start if self._start is not None else self.get_current_joint_values(),
+            planning_time=self.planning_time,
+            attempts=self.attempts,
+            seed=self.seed,
+            velocity_scaling=self.velocity_scaling,
+            acceleration_scaling=self.acceleration_scaling,
+            planner_id=self.planner_id,
+            fix_start=fix_start,
+        )
+        with self._lock:
+            return self.planner.plan(request)
+
+    def execute(
+        self, plan: MotionPlan | JointTrajectory | CartesianPlan, wait: bool = True
+    ) -> bool:
+        """Execute a plan (or a trajectory). With ``wait`` block until it ends and return
+        whether it succeeded; otherwise return True once it has started."""
+        traj = _trajectory_of(plan)
+        self._handle = self.controller.execute(traj)
+        if not wait:
+            return True
+        self._handle.wait()
+        return self._handle.result.success
+
+    def go(self, wait: bool = True) -> bool:
+        """Plan to the target and execute; False if planning or execution failed."""
+        plan = self.plan()
+        if not plan.success:
+            return False
+        return self.execute(plan, wait)
+
+    def stop(self) -> None:
+        """Stop the running motion (decelerate, hold)."""
+        self.controller.stop()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait for the motion started with ``wait=False``; True if it ended in time."""
+        return True if self._handle is None else self._handle.wait(timeout)
+
+    @property
+    def last_execution(self) -> ExecutionHandle | None:
+        return self._handle
+
+    # ------------------------------------------------------------------ Cartesian
+    def compute_cartesian_path(
+        self,
+        waypoints: list[Pose],
+        eef_step: float = 0.01,
+        jump_threshold: float = 0.0,
+        avoid_collisions: bool = True,
+        rotation_step: float = 0.05,
+    ) -> CartesianPlan:
+        """Straight lines of the end-effector link through ``waypoints`` (world frame), from
+        the start state; unpacks as ``trajectory, fraction``."""
+        start = self._start if self._start is not None else self.get_current_joint_values()
+        with self._lock:
+            cp = compute_cartesian_path(
+                self.scene,
+                self.group,
+                list(waypoints),
+                eef_step,
+                jump_threshold,
+                avoid_collisions,
+                self.end_effector_link,
+                rotation_step,
+                start,
+            )
+        # the steps are ≤ eef_step apart: rounding their corners within 1 mrad keeps the tool
+        # on the line to a fraction of a millimetre, and lets the motion flow through them
+        traj = time_optimal(
+            self.group,
+            cp.path if len(cp.path) > 1 else cp.path[[0, 0]],
+            self.velocity_scaling,
+            self.acceleration_scaling,
+            max_deviation=1e-3,
+        )
+        return CartesianPlan(traj, cp.fraction, cp.reason)
+
+    def move_relative(
+        self,
+        translation: ArrayLike = (0.0, 0.0, 0.0),
+        rpy: ArrayLike = (0.0, 0.0, 0.0),
+        frame: str = "base",
+        wait: bool = True,
+    ) -> CartesianPlan:
+        """Move the end-effector link in a straight line by ``translation`` [m] (and ``rpy``
+        [rad]) in the robot's base frame, the tool's own frame or the world frame. Executes
+        only when the whole move is possible; the returned plan says why not otherwise."""
+        T = self.get_current_pose()
+        with self._lock:
+            T_base = self.scene.link_pose(self.group.base_link)
+        target = relative_pose(T, translation, rpy, frame, T_base)
+        cp = self.compute_cartesian_path([target])
+        if cp.fraction >= 1.0:
+            self.execute(cp.trajectory, wait)
+        return cp
+
+    # ------------------------------------------------------------------ objects
+    def attach_object(
+        self, id: str, link: str | None = None, touch_links: Iterable[str] | None = None
+    ) -> AttachedObject:
+        """Attach world object ``id`` to ``link`` (default: the end-effector link)."""
+        with self._lock:
+            return self.scene.attach_object(id, link or self.end_effector_link, touch_links)
+
+    def detach_object(self, id: str) -> CollisionObject:
+        with self._lock:
+            return self.scene.detach_object(id)
+
+
+def _positive(v: float, what: str) -> float:
+    if not (v > 0 and np.isfinite(v)):
+        raise PlanningError(f"{what} must be > 0, got {v}")
+    return float(v)
+
+
+def _trajectory_of(plan: MotionPlan | JointTrajectory | CartesianPlan) -> JointTrajectory:
+    if isinstance(plan, JointTrajectory):
+        return plan
+    if isinstance(plan, CartesianPlan):
+        return plan.trajectory
+    if isinstance(plan, MotionPlan):
+        if not plan.success or plan.trajectory is None:
+            raise ExecutionError(f"cannot execute a failed plan: {plan.reason}")
+        return plan.trajectory
+    raise ExecutionError(
+        f"execute needs a MotionPlan, CartesianPlan or JointTrajectory, got {type(plan).__name__}"
+    )

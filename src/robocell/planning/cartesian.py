@@ -1,0 +1,274 @@
+"""Cartesian paths (MoveIt's ``computeCartesianPath``): the link moves along straight lines in
+task space through the waypoints, with orientation interpolated by slerp.
+
+Each step's IK is tracked from the previous step's solution (Levenberg–Marquardt seeded there,
+without joint limits), so the joint path follows one continuous IK branch. The path stops at
+the first step that fails, and the reason says why: no IK, a joint limit, a joint jump, or a
+collision (with which pair).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation, Slerp
+
+from robocell.errors import PlanningError
+from robocell.geometry.pose import Pose
+from robocell.kinematics import _kernels as KK
+from robocell.kinematics.fk import fk, tree_args
+from robocell.robot.model import JointGroup
+
+if TYPE_CHECKING:
+    from robocell.scene.planning_scene import PlanningScene
+
+
+@dataclass
+class CartesianPath:
+    """``path`` (K, dof): the joint states of the steps reached (the start first);
+    ``fraction`` of the requested Cartesian length that they cover; ``reason`` why the path
+    stops early (empty when fraction is 1)."""
+
+    path: NDArray[np.float64]
+    fraction: float
+    reason: str = ""
+    poses: NDArray[np.float64] | None = None
+
+
+def _poses_between(
+    T_a: NDArray[np.float64], T_b: NDArray[np.float64], eef_step: float, rotation_step: float
+) -> NDArray[np.float64]:
+    """Poses (n, 4, 4) from T_a (excluded) to T_b (included): steps no longer than eef_step [m]
+    and rotation_step [rad]."""
+    dist = float(np.linalg.norm(T_b[:3, 3] - T_a[:3, 3]))
+    R = Rotation.from_matrix(np.stack([T_a[:3, :3], T_b[:3, :3]]))
+    angle = float((R[0].inv() * R[1]).magnitude())
+    n = max(1, int(math.ceil(dist / eef_step)), int(math.ceil(angle / rotation_step)))
+    s = np.arange(1, n + 1) / n
+    out = np.tile(np.eye(4), (n, 1, 1))
+    out[:, :3, 3] = T_a[:3, 3] + s[:, None] * (T_b[:3, 3] - T_a[:3, 3])
+    out[:, :3, :3] = Slerp([0.0, 1.0], R)(s).as_matrix()
+    return out
+
+
+def compute_cartesian_path(
+    scene: PlanningScene,
+    group: str | JointGroup,
+    waypoints: list[Pose],
+    eef_step: float = 0.01,
+    jump_threshold: float = 0.0,
+    avoid_collisions: bool = True,
+    link: str | None = None,
+    rotation_step: float = 0.05,
+    start: ArrayLike | None = None,
+    max_joint_step: float = 0.2,
+) -> CartesianPath:
+    """Straight lines of ``link`` (default: the group's tip) through ``waypoints`` (world
+    frame), from ``start`` (default: the scene's current state).
+
+    ``eef_step`` [m] and ``rotation_step`` [rad] bound each step. ``jump_threshold`` > 0 is
+    MoveIt's relative test (a step longer in joint space than that many times the mean step is
+    a jump); whatever it is, no joint may move more than ``max_joint_step`` [rad] in one step.
+    """
+    g = scene.robot.group(group) if isinstance(group, str) else group
+    robot = scene.robot
+    tip = link or g.tip_link
+    robot.link_index(tip, "Cartesian path link")
+    if not waypoints:
+        raise PlanningError("compute_cartesian_path needs at least one waypoint")
+    for name, v in (("eef_step", eef_step), ("rotation_step", rotation_step)):
+        if not (v > 0 and math.isfinite(v)):
+            raise PlanningError(f"{name} must be > 0, got {v}")
+    if jump_threshold < 0 or not math.isfinite(jump_threshold):
+        raise PlanningError(f"jump_threshold must be >= 0, got {jump_threshold}")
+    targets = []
+    for k, w in enumerate(waypoints):
+        if not isinstance(w, Pose):
+            try:
+                w = Pose.from_any(w)
+            except Exception as exc:
+                raise PlanningError(f"waypoint {k} is not a pose: {w!r}") from exc
+        targets.append(w.matrix())
+    q0 = (
+        scene.state.group_positions(g).copy()
+        if start is None
+        else g.as_joint_vector(start, "Cartesian path start")
+    )
+    full = scene.state.positions.copy()
+    full[g.indices] = q0
+    T_world_base = scene.T_world_root @ _link_in_root(scene, g.base_link, full)
+    T_base_world = np.linalg.inv(T_world_base)
+    T_start = fk(g, q0, tip, relative_to=g.base_link)
+
+    # every step pose, in the base frame, and where each segment ends
+    poses = [T_start[None]]
+    seg_len = []
+    prev = T_start
+    for T_w in targets:
+        T_b = T_base_world @ T_w
+        steps = _poses_between(prev, T_b, eef_step, rotation_step)
+        poses.append(steps)
+        seg_len.append(float(np.linalg.norm(T_b[:3, 3] - prev[:3, 3])) + 1e-9)
+        prev = T_b
+    P = np.concatenate(poses)  # (n+1, 4, 4), P[0] = start
+    n = len(P) - 1
+    # Cartesian arc length at each step, for the fraction
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P[:, :3, 3], axis=0), axis=1))])
+    ang = np.concatenate(
+        [
+            [0.0],
+            np.cumsum(
+                Rotation.from_matrix(P[1:, :3, :3] @ P[:-1, :3, :3].transpose(0, 2, 1)).magnitude()
+            ),
+        ]
+    )
+    progress = arc / arc[-1] if arc[-1] > 1e-9 else ang / max(ang[-1], 1e-12)
+
+    qs = np.empty((n + 1, g.dof))
+    qs[0] = q0
+    tracker = _Tracker(g, tip, full)
+    reason = ""
+    reached = 0
+    for k in range(1, n + 1):
+        q, ok = tracker.solve(P[k], qs[k - 1])
+        if not ok:
+            reason = f"no IK solution for the step at {P[k][:3, 3].round(4).tolist()} (base frame)"
+            break
+        bad = g.limit_violations(q)
+        if bad:
+            reason = f"joint limit reached: {bad[0]}"
+            break
+        step = np.abs(q - qs[k - 1])
+        if float(step.max()) > max_joint_step:
+            j = int(step.argmax())
+            reason = f"joint jump: {g.joint_names[j]} moves {step[j]:.3f} rad in one step"
+            break
+        qs[k] = q
+        reached = k
+    qs = qs[: reached + 1]
+    if jump_threshold > 0 and len(qs) > 2:
+        d = np.linalg.norm(np.diff(qs, axis=0), axis=1)
+        limit = jump_threshold * d.mean()
+        over = np.flatnonzero(d > limit)
+        if len(over):
+            reached = int(over[0])
+            qs = qs[: reached + 1]
+            reason = (
+                f"joint jump: step {reached + 1} is longer than {jump_threshold} × the mean step"
+            )
+    if avoid_collisions and len(qs) > 1:
+        checker = scene.checker(g)
+        # every step, and between steps at 0.01 rad, so that no collision hides between them
+        dense, owner = _densify(qs, 0.01)
+        hit = checker.check(dense)
+        if hit.any():
+            first = int(np.argmax(hit))
+            reached = max(0, int(owner[first]) - 1)
+            pairs = checker.colliding_pairs(dense[first])
+            what = ", ".join(f"{a} – {b}" for a, b in pairs) or "(unknown pair)"
+            reason = f"collision at step {reached + 1}: {what}"
+            qs = qs[: reached + 1]
+    fraction = float(progress[reached]) if reached < n else 1.0
+    return CartesianPath(qs, fraction, "" if fraction >= 1.0 else reason, P[: reached + 1])
+
+
+def _densify(
+    qs: NDArray[np.float64], resolution: float
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """States along the polyline qs at most ``resolution`` apart per joint, and for each the
+    index of the step it ends at."""
+    out = [qs[:1]]
+    owner = [np.zeros(1, np.int64)]
+    for k in range(1, len(qs)):
+        m = max(1, int(math.ceil(float(np.max(np.abs(qs[k] - qs[k - 1]))) / resolution)))
+        t = np.arange(1, m + 1)[:, None] / m
+        out.append(qs[k - 1] + t * (qs[k] - qs[k - 1]))
+        owner.append(np.full(m, k, np.int64))
+    return np.concatenate(out), np.concatenate(owner)
+
+
+def _link_in_root(
+    scene: PlanningScene, link: str, full: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    from robocell.kinematics.fk import link_poses
+
+    return link_poses(scene.robot, full)[scene.robot.link_index(link)]
+
+
+class _Tracker:
+    """IK that follows one branch: LM from the previous step's solution, joint limits off
+    (a limit is reported, not silently avoided by switching branch)."""
+
+    def __init__(self, group: JointGroup, tip: str, full: NDArray[np.float64]) -> None:
+        robot = group.robot
+        assert robot is not None
+        self.g = group
+        self.args = tree_args(robot)
+        self.tip = robot.link_index(tip)
+        self.base = robot.link_index(group.base_link)
+        self.joints = self.args.joints_to(self.tip, self.base)
+        self.full = full.copy()
+        T = np.empty((self.args.n_links, 4, 4))
+        KK.fk_into(self.full, self.joints, self.args.root, *self.args.arrays, T)
+        self.T_root_base = T[self.base].copy()
+        self.lo = np.full(group.dof, -1e9)
+        self.hi = np.full(group.dof, 1e9)
+
+    def solve(
+        self, T_base_tip: NDArray[np.float64], seed: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], bool]:
+        q, ok, _, _ = KK.numeric_ik(
+            self.T_root_base @ T_base_tip,
+            self.full,
+            self.g.indices,
+            seed[None, :],
+            self.lo,
+            self.hi,
+            self.tip,
+            self.joints,
+            self.args.root,
+            *self.args.arrays,
+            self.args.n_links,
+            1e-6,
+            1e-6,
+            100,
+            False,
+        )
+        return q, bool(ok)
+
+
+def relative_pose(
+    T_world_link: Pose,
+    translation: ArrayLike = (0.0, 0.0, 0.0),
+    rpy: ArrayLike = (0.0, 0.0, 0.0),
+    frame: str = "world",
+    T_world_base: Pose | None = None,
+) -> Pose:
+    """``T_world_link`` moved by ``translation`` [m] and rotated by ``rpy`` [rad], expressed in
+    ``frame``: "world", "base" (the robot base; needs ``T_world_base``) or "tool" (the link's
+    own frame: "forward 0.05 m" along its z axis is ``translation=(0, 0, 0.05)``)."""
+    t = np.asarray(translation, dtype=float)
+    if t.shape != (3,) or not np.all(np.isfinite(t)):
+        raise PlanningError(f"translation must be 3 finite numbers, got {translation!r}")
+    delta = Pose.from_rpy(*t, *np.asarray(rpy, dtype=float))
+    if frame == "tool":
+        return T_world_link * delta
+    if frame in ("world", "base"):
+        R_frame = np.eye(3)
+        if frame == "base":
+            if T_world_base is None:
+                raise PlanningError("a move in the base frame needs the base pose")
+            R_frame = T_world_base.rotation()
+        T = T_world_link.matrix()
+        D = delta.matrix()
+        out = np.eye(4)
+        # rotate about the link's own origin, with axes of the frame
+        R_d = R_frame @ D[:3, :3] @ R_frame.T
+        out[:3, :3] = R_d @ T[:3, :3]
+        out[:3, 3] = T[:3, 3] + R_frame @ D[:3, 3]
+        return Pose.from_matrix(out)
+    raise PlanningError(f"unknown frame {frame!r}; known: base, tool, world")

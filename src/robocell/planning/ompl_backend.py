@@ -1,0 +1,115 @@
+"""OMPL's planners behind the planner interface (optional: ``pip install ompl``).
+
+Planners are chosen by the names MoveIt's ompl_planning.yaml uses (``RRTConnectkConfigDefault``,
+``RRTstarkConfigDefault``, …) or by their OMPL class name. States are checked one at a time
+through the same :class:`~robocell.scene.CollisionChecker`, with OMPL's motion validator at a
+resolution at least as fine as the native planner's.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robocell.errors import PlanningError
+from robocell.planning.rrt import Edges
+
+# MoveIt's names (without "kConfigDefault") → OMPL geometric planner classes
+PLANNERS = {
+    "RRTConnect": "RRTConnect",
+    "RRT": "RRT",
+    "RRTstar": "RRTstar",
+    "InformedRRTstar": "InformedRRTstar",
+    "SORRTstar": "SORRTstar",
+    "AORRTC": "AORRTC",
+    "PRM": "PRM",
+    "PRMstar": "PRMstar",
+    "KPIECE": "KPIECE1",
+    "BKPIECE": "BKPIECE1",
+    "LBKPIECE": "LBKPIECE1",
+    "BITstar": "BITstar",
+    "FMT": "FMT",
+    "BFMT": "BFMT",
+}
+
+
+def _class_name(name: str) -> str | None:
+    base = name.removesuffix("kConfigDefault")
+    if base in PLANNERS:
+        return PLANNERS[base]
+    if base in PLANNERS.values():
+        return base
+    return None
+
+
+def is_ompl_name(name: str) -> bool:
+    return _class_name(name) is not None
+
+
+def plan(
+    name: str,
+    edges: Edges,
+    start: NDArray[np.float64],
+    goals: NDArray[np.float64],
+    lower: NDArray[np.float64],
+    upper: NDArray[np.float64],
+    deadline: float,
+    seed: int,
+) -> NDArray[np.float64] | None:
+    """A path (K, dof) from ``start`` to one of ``goals`` found by OMPL planner ``name``, or None
+    when none is found before ``deadline``."""
+    try:
+        from ompl import base as ob
+        from ompl import geometric as og
+        from ompl import util as ou
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise PlanningError(f"planner {name!r} needs OMPL: pip install ompl ({exc})") from exc
+    cls_name = _class_name(name)
+    if cls_name is None or not hasattr(og, cls_name):
+        raise PlanningError(f"unknown OMPL planner {name!r}; known: {', '.join(PLANNERS)}")
+    ou.setLogLevel(ou.LogLevel.LOG_WARN)
+    ou.RNG.setSeed(seed)
+    dof = start.shape[0]
+    space = ob.RealVectorStateSpace(dof)
+    bounds = ob.RealVectorBounds(dof)
+    for i in range(dof):
+        bounds.setLow(i, float(lower[i]))
+        bounds.setHigh(i, float(upper[i]))
+    space.setBounds(bounds)
+    ss = og.SimpleSetup(space)
+    checker = edges.checker
+    buf = np.empty((1, dof))
+
+    def valid(state: object) -> bool:
+        for i in range(dof):
+            buf[0, i] = state[i]  # type: ignore[index]
+        edges.stats.states += 1
+        return not bool(checker.check(buf)[0])
+
+    ss.setStateValidityChecker(valid)
+    si = ss.getSpaceInformation()
+    # OMPL's resolution is a fraction of the space's extent, in its (L2) distance
+    si.setStateValidityCheckingResolution(edges.resolution / space.getMaximumExtent())
+    st = space.allocState()
+    for i in range(dof):
+        st[i] = float(start[i])
+    goal_states = ob.GoalStates(si)
+    for g in goals:
+        s = space.allocState()
+        for i in range(dof):
+            s[i] = float(g[i])
+        goal_states.addState(s)
+    ss.setStartState(st)
+    ss.setGoal(goal_states)
+    ss.setPlanner(getattr(og, cls_name)(si))
+    remaining = deadline - time.perf_counter()
+    if remaining <= 0:
+        return None
+    solved = ss.solve(remaining)
+    if not solved or not ss.haveExactSolutionPath():
+        return None
+    path = ss.getSolutionPath()
+    out = np.array([[path.getState(k)[i] for i in range(dof)] for k in range(path.getStateCount())])
+    return out

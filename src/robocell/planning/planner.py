@@ -1,0 +1,357 @@
+"""The planner: validates a request, turns its goal into a set of goal configurations, plans
+with RRT-Connect on the batched checker (or an OMPL planner), shortens the path, re-validates
+the path that will be executed at fine resolution and times it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robocell.errors import PlanningError, choices
+from robocell.geometry.pose import Pose
+from robocell.kinematics.ik import NumericIK, NumericIKConfig, solve_ik
+from robocell.planning.request import (
+    Goal,
+    JointGoal,
+    MotionPlan,
+    MotionPlanRequest,
+    PoseGoal,
+    PositionGoal,
+)
+from robocell.planning.rrt import Edges, rrt_connect, shortcut
+from robocell.robot.model import JointGroup
+from robocell.scene.checker import CollisionChecker
+from robocell.scene.planning_scene import PlanningScene
+from robocell.trajectory.path import BlendedPath
+from robocell.trajectory.timing import time_optimal
+
+NATIVE_PLANNERS = ("", "rrtconnect", "robocell")
+
+
+@dataclass
+class PlannerConfig:
+    """Planner settings. Resolutions are the largest joint step [rad or m] between two checked
+    states: ``resolution`` while planning, ``validation_resolution`` for the final check of
+    the path as it will be executed (rounded corners included)."""
+
+    resolution: float = 0.05
+    validation_resolution: float = 0.01
+    step: float = 0.8
+    max_deviation: float = 0.05
+    shortcut: bool = True
+    ik_timeout: float = 0.05
+    numeric_goal_solutions: int = 4
+    fix_start_radius: float = 0.2
+    extra: dict[str, float] = field(default_factory=dict)
+
+
+class Planner:
+    """Plans motions for the groups of a scene's robot (MoveIt's planning pipeline).
+
+    The scene is read when :meth:`plan` is called (its objects, attached objects, allowed
+    collisions, and the positions of joints outside the planned group)."""
+
+    def __init__(self, scene: PlanningScene, config: PlannerConfig | None = None) -> None:
+        self.scene = scene
+        self.config = config or PlannerConfig()
+        self._position_ik: dict[tuple[str, str], NumericIK] = {}
+
+    # ------------------------------------------------------------------ public
+    def plan(self, request: MotionPlanRequest) -> MotionPlan:
+        """Plan ``request``. Malformed requests (unknown group or link, NaN, a goal outside
+        the limits or in collision, an unreachable pose, a start in collision without
+        ``fix_start``) raise a :class:`PlanningError`; a request that is valid but not solved in
+        time returns a :class:`MotionPlan` with ``success=False`` and the reason."""
+        t0 = time.perf_counter()
+        cfg = self.config
+        group = self.scene.robot.group(request.group)
+        _check_request(request)
+        checker = self.scene.checker(group)
+        start, prefix = self._start(group, request, checker)
+        goals = self.goal_configurations(group, request.goal, start, checker)
+        deadline = t0 + request.planning_time
+        rng = np.random.default_rng(request.seed)
+        planner_name = request.planner_id.strip()
+        resolution = cfg.resolution
+        best: NDArray[np.float64] | None = None
+        best_dev = cfg.max_deviation
+        stats: dict[str, float] = {"goals": float(len(goals))}
+        reason = ""
+        found = 0
+        tries = 0
+        # ``attempts`` plans are made (the shortest is kept); a path that fails validation
+        # does not count, and the next try plans at a finer resolution
+        while found < request.attempts and time.perf_counter() < deadline:
+            tries += 1
+            edges = Edges(checker, resolution)
+            path = self._solve(planner_name, edges, start, goals, group, rng, deadline)
+            stats["checked_states"] = stats.get("checked_states", 0) + edges.stats.states
+            if path is None:
+                reason = (
+                    f"no path found in {request.planning_time:.3f} s "
+                    f"({edges.stats.iterations} iterations, {edges.stats.nodes} nodes)"
+                )
+                continue
+            if cfg.shortcut:
+                path = shortcut(edges, path, rng, deadline)
+            ok, dev, why = self._validate(checker, path, edges)
+            if not ok:
+                reason = why
+                resolution = max(resolution / 2, cfg.validation_resolution)
+                continue
+            found += 1
+            if best is None or _length(path) < _length(best):
+                best, best_dev = path, dev
+        stats["tries"] = tries
+        if best is None:
+            return MotionPlan(
+                False,
+                group.name,
+                np.empty((0, group.dof)),
+                None,
+                time.perf_counter() - t0,
+                reason or "no path found",
+                planner_name or "rrtconnect",
+                stats,
+            )
+        if prefix is not None:
+            best = np.vstack([prefix, best])
+        plan_time = time.perf_counter() - t0
+        traj = None
+        if request.time_parameterize:
+            traj = time_optimal(
+                group,
+                BlendedPath(best, best_dev),
+                request.velocity_scaling,
+                request.acceleration_scaling,
+            )
+        stats["timing_time"] = time.perf_counter() - t0 - plan_time
+        return MotionPlan(
+            True, group.name, best, traj, plan_time, "", planner_name or "rrtconnect", stats
+        )
+
+    def goal_configurations(
+        self,
+        group: JointGroup,
+        goal: Goal,
+        seed: NDArray[np.float64],
+        checker: CollisionChecker,
+    ) -> NDArray[np.float64]:
+        """(G, dof) collision-free configurations that satisfy ``goal``, nearest ``seed`` first.
+        Raises :class:`PlanningError` when there are none, saying why."""
+        if isinstance(goal, JointGoal):
+            q = group.as_joint_vector(goal.positions, "joint goal")
+            bad = group.limit_violations(q)
+            if bad:
+                raise PlanningError(f"joint goal outside the limits: {'; '.join(bad)}")
+            if checker.check(q)[0]:
+                raise PlanningError(f"joint goal is in collision: {_pairs(checker, q)}")
+            return q[None, :]
+        robot = self.scene.robot
+        if isinstance(goal, PoseGoal | PositionGoal):
+            robot.link_index(goal.link, "goal link")
+        T_world_base = self.scene.link_pose(group.base_link).matrix()
+        T_base_world = np.linalg.inv(T_world_base)
+        if isinstance(goal, PoseGoal):
+            if not isinstance(goal.pose, Pose):
+                raise PlanningError(f"a pose goal needs a Pose, got {type(goal.pose).__name__}")
+            T = T_base_world @ goal.pose.matrix()
+            res = solve_ik(
+                group,
+                T,
+                seed=seed,
+                checker=checker,
+                tip_link=goal.link,
+                timeout=self.config.ik_timeout,
+                max_solutions=0,
+                rng=np.random.default_rng(0),
+            )
+            if res.solver == "numeric" and res.success:
+                more = solve_ik(
+                    group,
+                    T,
+                    seed=seed,
+                    checker=checker,
+                    tip_link=goal.link,
+                    timeout=self.config.ik_timeout,
+                    max_solutions=self.config.numeric_goal_solutions,
+                    rng=np.random.default_rng(1),
+                )
+                sols = np.vstack([res.solutions, more.solutions])
+                return _unique(sols)
+            if not res.success:
+                raise PlanningError(f"pose goal for {goal.link!r} has no solution: {res.reason}")
+            return res.solutions
+        if isinstance(goal, PositionGoal):
+            p = np.asarray(goal.position, dtype=float)
+            if p.shape != (3,) or not np.all(np.isfinite(p)):
+                raise PlanningError(
+                    f"a position goal needs 3 finite numbers, got {goal.position!r}"
+                )
+            T = np.eye(4)
+            T[:3, 3] = (T_base_world @ np.append(p, 1.0))[:3]
+            key = (group.name, goal.link)
+            if key not in self._position_ik:
+                self._position_ik[key] = NumericIK(
+                    group,
+                    goal.link,
+                    NumericIKConfig(position_only=True, tol_pos=min(goal.tolerance, 1e-4)),
+                )
+            ik = self._position_ik[key]
+            ik.set_base_positions(self.scene.state.positions)
+            gen = np.random.default_rng(0)
+            res = ik.solve(T, seed, gen, self.config.ik_timeout, self.config.numeric_goal_solutions)
+            if not res.success:
+                raise PlanningError(
+                    f"position goal for {goal.link!r} at {p.round(4).tolist()} is out of reach: "
+                    f"{res.reason}"
+                )
+            free = res.solutions[~checker.check(res.solutions)]
+            if len(free) == 0:
+                raise PlanningError(
+                    f"position goal for {goal.link!r} at {p.round(4).tolist()} is reachable but "
+                    f"every solution found is in collision"
+                )
+            return free
+        raise PlanningError(
+            f"unknown goal type {type(goal).__name__}; use JointGoal, PoseGoal or PositionGoal"
+        )
+
+    # ------------------------------------------------------------------ steps
+    def _start(
+        self, group: JointGroup, request: MotionPlanRequest, checker: CollisionChecker
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """The start configuration, and the original start when it had to be nudged."""
+        if request.start is None:
+            q = self.scene.state.group_positions(group)
+        else:
+            q = group.as_joint_vector(request.start, "start state")
+        original = q.copy()
+        bad = group.limit_violations(q)
+        if bad:
+            if not request.fix_start:
+                raise PlanningError(
+                    f"start state outside the joint limits: {'; '.join(bad)} "
+                    "(fix_start=True moves it inside)"
+                )
+            q = np.clip(q, group.lower, group.upper)
+        if checker.check(q)[0]:
+            if not request.fix_start:
+                raise PlanningError(
+                    f"start state in collision: {_pairs(checker, q)} "
+                    "(fix_start=True nudges it to the nearest valid state)"
+                )
+            q = self._nudge(group, q, checker, np.random.default_rng(request.seed))
+        return q, (original[None, :] if not np.array_equal(q, original) else None)
+
+    def _nudge(
+        self,
+        group: JointGroup,
+        q: NDArray[np.float64],
+        checker: CollisionChecker,
+        rng: np.random.Generator,
+    ) -> NDArray[np.float64]:
+        """The nearest collision-free state found around q (radii growing to
+        ``fix_start_radius``), as MoveIt's FixStartStateCollision adapter does."""
+        for radius in np.geomspace(0.005, self.config.fix_start_radius, 8):
+            cand = np.clip(
+                q + rng.uniform(-radius, radius, (128, group.dof)), group.lower, group.upper
+            )
+            free = cand[~checker.check(cand)]
+            if len(free):
+                return free[np.argmin(np.linalg.norm(free - q, axis=1))]
+        raise PlanningError(
+            f"start state in collision ({_pairs(checker, q)}) and no valid state within "
+            f"{self.config.fix_start_radius} rad"
+        )
+
+    def _solve(
+        self,
+        planner_name: str,
+        edges: Edges,
+        start: NDArray[np.float64],
+        goals: NDArray[np.float64],
+        group: JointGroup,
+        rng: np.random.Generator,
+        deadline: float,
+    ) -> NDArray[np.float64] | None:
+        if planner_name.lower() in NATIVE_PLANNERS:
+            return rrt_connect(
+                edges, start, goals, group.lower, group.upper, rng, deadline, self.config.step
+            )
+        from robocell.planning import ompl_backend
+
+        if not ompl_backend.is_ompl_name(planner_name):
+            raise PlanningError(
+                f"unknown planner {planner_name!r}; known: rrtconnect (native, default) or an "
+                f"OMPL planner: {choices(ompl_backend.PLANNERS)}"
+            )
+        return ompl_backend.plan(
+            planner_name,
+            edges,
+            start,
+            goals,
+            group.lower,
+            group.upper,
+            deadline,
+            int(rng.integers(2**31)),
+        )
+
+    def _validate(
+        self,
+        checker: CollisionChecker,
+        path: NDArray[np.float64],
+        edges: Edges,
+    ) -> tuple[bool, float, str]:
+        """Check the path as it will be executed (corners rounded) at the validation
+        resolution: (valid, corner deviation to execute it with, reason). If only a rounded
+        corner collides, the corners are kept sharp (the motion stops at each) instead."""
+        res = self.config.validation_resolution
+        dev = self.config.max_deviation
+        if dev > 0 and len(path) > 2:
+            hit = checker.check(BlendedPath(path, dev).sample_states(res))
+            if not hit.any():
+                return True, dev, ""
+        sharp = BlendedPath(path, 0.0).sample_states(res)
+        hit_sharp = checker.check(sharp)
+        if not hit_sharp.any():
+            return True, 0.0, ""
+        k = int(np.argmax(hit_sharp))
+        return (
+            False,
+            0.0,
+            f"the path found at resolution {edges.resolution} rad collides between checked "
+            f"states ({_pairs(checker, sharp[k])}); replanning finer",
+        )
+
+
+def _check_request(request: MotionPlanRequest) -> None:
+    if not (request.planning_time > 0 and np.isfinite(request.planning_time)):
+        raise PlanningError(f"planning time must be > 0 s, got {request.planning_time}")
+    if request.attempts < 1:
+        raise PlanningError(f"number of planning attempts must be >= 1, got {request.attempts}")
+    for name in ("velocity_scaling", "acceleration_scaling"):
+        v = getattr(request, name)
+        if not 0 < v <= 1:
+            raise PlanningError(f"{name.replace('_', ' ')} factor must be in (0, 1], got {v}")
+
+
+def _pairs(checker: CollisionChecker, q: NDArray[np.float64]) -> str:
+    pairs = checker.colliding_pairs(q)
+    return ", ".join(f"{a} – {b}" for a, b in pairs) if pairs else "(unknown pair)"
+
+
+def _length(path: NDArray[np.float64]) -> float:
+    return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+
+
+def _unique(sols: NDArray[np.float64], tol: float = 1e-4) -> NDArray[np.float64]:
+    out: list[NDArray[np.float64]] = []
+    for s in sols:
+        if not any(np.max(np.abs(s - o)) < tol for o in out):
+            out.append(s)
+    return np.array(out)

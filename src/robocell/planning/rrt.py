@@ -1,0 +1,237 @@
+"""Sampling-based planning on the batched checker: RRT-Connect (Kuffner & LaValle 2000) to a
+goal *set*, and path shortcutting.
+
+Edges are straight lines in joint space checked at ``resolution`` (no joint moves more than
+that between two checked states). Every edge is checked as one batch: the states of an edge
+go to the checker in one call, and the tree is extended to the last free state before the
+first collision.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+class BatchChecker(Protocol):
+    def check(self, qs: NDArray[np.float64]) -> NDArray[np.bool_]: ...
+
+
+@dataclass
+class EdgeStats:
+    """Counters of one planning run."""
+
+    edges: int = 0
+    states: int = 0
+    iterations: int = 0
+    nodes: int = 0
+
+
+class Edges:
+    """Straight-line edge checks at a fixed resolution, counted."""
+
+    def __init__(self, checker: BatchChecker, resolution: float) -> None:
+        self.checker = checker
+        self.resolution = resolution
+        self.stats = EdgeStats()
+
+    def states(
+        self, a: NDArray[np.float64], b: NDArray[np.float64], include_start: bool = False
+    ) -> NDArray[np.float64]:
+        n = max(1, int(math.ceil(float(np.max(np.abs(b - a))) / self.resolution)))
+        t = np.arange(0 if include_start else 1, n + 1, dtype=float)[:, None] / n
+        return a + t * (b - a)
+
+    def first_hit(self, qs: NDArray[np.float64]) -> int:
+        """Index of the first colliding state of ``qs`` (len(qs) if none)."""
+        self.stats.edges += 1
+        self.stats.states += len(qs)
+        hit = self.checker.check(qs)
+        k = int(np.argmax(hit))
+        return k if hit[k] else len(qs)
+
+    def free(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
+        """Whether the segment a → b (b included, a assumed free) is collision-free. States are
+        checked coarse-to-fine (every 8th first), so a blocked edge is usually found early."""
+        qs = self.states(a, b)
+        if len(qs) > 16:
+            coarse = qs[7::8]
+            if self.first_hit(coarse) < len(coarse):
+                return False
+            mask = np.ones(len(qs), bool)
+            mask[7::8] = False
+            qs = qs[mask]
+        return self.first_hit(qs) == len(qs)
+
+
+class _Tree:
+    def __init__(self, dof: int, capacity: int = 1024) -> None:
+        self.q = np.empty((capacity, dof))
+        self.parent = np.empty(capacity, np.int64)
+        self.n = 0
+
+    def add(self, q: NDArray[np.float64], parent: int) -> int:
+        if self.n == len(self.q):
+            self.q = np.vstack([self.q, np.empty_like(self.q)])
+            self.parent = np.concatenate([self.parent, np.empty_like(self.parent)])
+        self.q[self.n] = q
+        self.parent[self.n] = parent
+        self.n += 1
+        return self.n - 1
+
+    def nearest(self, q: NDArray[np.float64]) -> int:
+        d = self.q[: self.n] - q
+        return int(np.argmin(np.einsum("ij,ij->i", d, d)))
+
+    def branch(self, i: int) -> list[NDArray[np.float64]]:
+        """Configurations from node i back to its root."""
+        out = []
+        while i >= 0:
+            out.append(self.q[i])
+            i = int(self.parent[i])
+        return out
+
+
+def rrt_connect(
+    edges: Edges,
+    start: NDArray[np.float64],
+    goals: NDArray[np.float64],
+    lower: NDArray[np.float64],
+    upper: NDArray[np.float64],
+    rng: np.random.Generator,
+    deadline: float,
+    step: float = 0.8,
+) -> NDArray[np.float64] | None:
+    """A collision-free path (K, dof) from ``start`` to one of ``goals`` (G, dof), or None when
+    ``deadline`` (time.perf_counter) passes. Start and goals must be collision-free.
+
+    ``step`` [rad]: longest extension of a tree towards a sample (L∞ in joint space)."""
+    dof = start.shape[0]
+    # straight to a goal first: many requests need nothing more
+    for g in goals[np.argsort(np.linalg.norm(goals - start, axis=1))][:4]:
+        if edges.free(start, g):
+            return np.array([start, g])
+        if time.perf_counter() > deadline:
+            return None
+    ta, tb = _Tree(dof), _Tree(dof)
+    ta.add(start, -1)
+    for g in goals:
+        tb.add(g, -1)
+    a_is_start = True
+    span = upper - lower
+    while time.perf_counter() < deadline:
+        edges.stats.iterations += 1
+        q_rand = lower + rng.random(dof) * span
+        i = ta.nearest(q_rand)
+        q_new = _extend(edges, ta.q[i], q_rand, step)
+        if q_new is not None:
+            i_new = ta.add(q_new, i)
+            # connect: grow the other tree towards q_new, as far as it is free
+            j = tb.nearest(q_new)
+            while True:
+                q2 = _extend(edges, tb.q[j], q_new, step)
+                if q2 is None:
+                    break
+                j = tb.add(q2, j)
+                if np.array_equal(q2, q_new):
+                    pa, pb = ta.branch(i_new), tb.branch(j)
+                    path = pa[::-1] + pb[1:]
+                    if not a_is_start:
+                        path = path[::-1]
+                    edges.stats.nodes = ta.n + tb.n
+                    return np.array(path)
+        ta, tb = tb, ta
+        a_is_start = not a_is_start
+    edges.stats.nodes = ta.n + tb.n
+    return None
+
+
+def _extend(
+    edges: Edges, q_from: NDArray[np.float64], q_to: NDArray[np.float64], step: float
+) -> NDArray[np.float64] | None:
+    """The farthest free state from q_from towards q_to, at most ``step`` away (L∞); None if
+    not even the first state along the way is free."""
+    d = q_to - q_from
+    dist = float(np.max(np.abs(d)))
+    if dist < 1e-12:
+        return None
+    target = q_to if dist <= step else q_from + d * (step / dist)
+    qs = edges.states(q_from, target)
+    k = edges.first_hit(qs)
+    if k == 0:
+        return None
+    return target if k == len(qs) else qs[k - 1]
+
+
+def shortcut(
+    edges: Edges,
+    path: NDArray[np.float64],
+    rng: np.random.Generator,
+    deadline: float,
+    max_tries: int = 40,
+) -> NDArray[np.float64]:
+    """A shorter path: greedy removal of waypoints that can be skipped, then random shortcuts
+    between points on the path (OMPL's shortcutPath), then greedy again. Every new edge is
+    checked."""
+    path = _skip_waypoints(edges, path, deadline)
+    fails = 0
+    tries = 0
+    while len(path) > 2 and tries < max_tries and fails < 12 and time.perf_counter() < deadline:
+        tries += 1
+        seg_len = np.linalg.norm(np.diff(path, axis=0), axis=1)
+        cum = np.concatenate([[0.0], np.cumsum(seg_len)])
+        total = cum[-1]
+        if total < 1e-9:
+            break
+        s1, s2 = np.sort(rng.random(2) * total)
+        i1 = int(np.searchsorted(cum, s1, side="right") - 1)
+        i2 = int(np.searchsorted(cum, s2, side="right") - 1)
+        i2 = min(i2, len(path) - 2)
+        if i1 == i2:
+            fails += 1
+            continue
+        p1 = path[i1] + (path[i1 + 1] - path[i1]) * ((s1 - cum[i1]) / max(seg_len[i1], 1e-12))
+        p2 = path[i2] + (path[i2 + 1] - path[i2]) * ((s2 - cum[i2]) / max(seg_len[i2], 1e-12))
+        old = s2 - s1
+        if np.linalg.norm(p2 - p1) > old - 1e-6:
+            fails += 1
+            continue
+        if edges.free(p1, p2):
+            path = np.vstack([path[: i1 + 1], p1, p2, path[i2 + 1 :]])
+            fails = 0
+        else:
+            fails += 1
+    path = _skip_waypoints(edges, path, deadline)
+    return _dedupe(path)
+
+
+def _skip_waypoints(
+    edges: Edges, path: NDArray[np.float64], deadline: float
+) -> NDArray[np.float64]:
+    """From each kept waypoint, jump to the farthest one reachable in a straight line."""
+    out = [path[0]]
+    i = 0
+    n = len(path)
+    while i < n - 1:
+        j = n - 1
+        while j > i + 1:
+            if time.perf_counter() > deadline:
+                j = i + 1
+                break
+            if edges.free(path[i], path[j]):
+                break
+            j -= 1
+        out.append(path[j])
+        i = j
+    return np.array(out)
+
+
+def _dedupe(path: NDArray[np.float64]) -> NDArray[np.float64]:
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(path, axis=0), axis=1) > 1e-9])
+    out = path[keep]
+    return out if len(out) >= 2 else np.vstack([path[0], path[-1]])
