@@ -7,17 +7,51 @@ import sys
 
 from robocell.errors import RobocellError
 
+SETS = (
+    "table_pick",
+    "table_under_pick",
+    "box",
+    "bookshelf_small",
+    "bookshelf_tall",
+    "bookshelf_thin",
+    "cage",
+)
+
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="robocell", description="robocell command line")
     sub = parser.add_subparsers(dest="command", metavar="command")
     sub.add_parser("info", help="list bundled robots and cells, and run a short self-check")
+    bench = sub.add_parser("bench", help="run a benchmark and print its table")
+    bench_sub = bench.add_subparsers(dest="bench", metavar="benchmark")
+    bp = bench_sub.add_parser("planning", help="MotionBenchMaker problems (../shared/bench/mbm)")
+    bp.add_argument("--robots", default="ur5,panda", help="comma-separated: ur5, panda")
+    bp.add_argument("--sets", default=",".join(SETS), help="comma-separated problem sets")
+    bp.add_argument("--limit", type=int, default=50, help="problems per set (first N)")
+    bp.add_argument("--timeout", type=float, default=1.0, help="planning time per problem [s]")
+    bp.add_argument("--baseline", choices=["ompl"], help="also plan with OMPL's RRTConnect")
+    bp.add_argument("--json", help="write every problem's figures to this file")
+    bp.add_argument("--mbm", help="folder holding ur5/ and panda/ (default: ../shared/bench/mbm)")
+    bp.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
     try:
         if args.command == "info":
             from robocell.apps.selfcheck import run_info
 
             return run_info()
+        if args.command == "bench" and args.bench == "planning":
+            from robocell.apps.bench_planning import run
+
+            return run(
+                [r.strip() for r in args.robots.split(",") if r.strip()],
+                [x.strip() for x in args.sets.split(",") if x.strip()],
+                args.limit,
+                args.timeout,
+                args.baseline,
+                args.json,
+                args.mbm,
+                args.seed,
+            )
         parser.print_help()
         return 2
     except RobocellError as exc:

@@ -35,6 +35,9 @@ PLANNERS = {
 }
 
 
+_SEEDED = False
+
+
 def _class_name(name: str) -> str | None:
     base = name.removesuffix("kConfigDefault")
     if base in PLANNERS:
@@ -70,7 +73,10 @@ def plan(
     if cls_name is None or not hasattr(og, cls_name):
         raise PlanningError(f"unknown OMPL planner {name!r}; known: {', '.join(PLANNERS)}")
     ou.setLogLevel(ou.LogLevel.LOG_WARN)
-    ou.RNG.setSeed(seed)
+    global _SEEDED
+    if not _SEEDED:  # OMPL takes one seed per process, before its first random number
+        ou.RNG.setSeed(seed)
+        _SEEDED = True
     dof = start.shape[0]
     space = ob.RealVectorStateSpace(dof)
     bounds = ob.RealVectorBounds(dof)

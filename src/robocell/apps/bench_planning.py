@@ -1,0 +1,196 @@
+"""``robocell bench planning``: the MotionBenchMaker problems (../shared/bench/mbm), planned
+with the native planner and, with ``--baseline ompl``, with OMPL's RRTConnect through the same
+checker in the same run. Prints one row per set; ``--json`` writes every problem's figures.
+
+Planning time is from the request to the validated path (goal resolution, planning,
+shortcutting, the final check at fine resolution); scene loading and the checker's
+construction are not in it, as in MoveIt's benchmarks.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from robocell.errors import RobocellError
+from robocell.planning import JointGoal, MotionPlanRequest, Planner
+from robocell.robot.model import RobotModel
+from robocell.scene.moveit_yaml import load_request, load_scene
+
+SETS = (
+    "table_pick",
+    "table_under_pick",
+    "box",
+    "bookshelf_small",
+    "bookshelf_tall",
+    "bookshelf_thin",
+    "cage",
+)
+
+
+@dataclass
+class ProblemResult:
+    robot: str
+    set: str
+    problem: int
+    planner: str
+    valid: bool
+    solved: bool = False
+    time: float = float("nan")
+    path_length: float = float("nan")
+    reason: str = ""
+
+
+@dataclass
+class SetRow:
+    robot: str
+    set: str
+    planner: str
+    problems: int
+    valid: int
+    solved: int
+    median_ms: float
+    p95_ms: float
+    median_length: float
+    results: list[ProblemResult] = field(default_factory=list)
+
+
+def default_mbm_dir() -> Path:
+    env = os.environ.get("ROBOCELL_SHARED")
+    candidates = [Path(env)] if env else []
+    candidates += [Path.cwd().parent / "shared", Path.cwd() / "shared", Path.cwd() / "../shared"]
+    for c in candidates:
+        if (c / "bench" / "mbm").is_dir():
+            return c / "bench" / "mbm"
+    raise RobocellError(
+        "the MotionBenchMaker problems were not found: pass --mbm PATH (the folder holding "
+        "ur5/ and panda/) or set ROBOCELL_SHARED"
+    )
+
+
+def load_robot(mbm: Path, robot: str) -> RobotModel:
+    d = mbm / robot
+    return RobotModel.from_urdf(d / f"{robot}.urdf", d / f"{robot}.srdf", package_dirs=[d])
+
+
+def run_set(
+    mbm: Path,
+    model: RobotModel,
+    robot: str,
+    set_name: str,
+    planners: list[str],
+    limit: int,
+    timeout: float,
+    seed: int,
+) -> dict[str, SetRow]:
+    folder = mbm / robot / "problems" / f"{set_name}_{robot}"
+    scenes = sorted(folder.glob("scene*.yaml"))[:limit]
+    results: dict[str, list[ProblemResult]] = {p: [] for p in planners}
+    for scene_path in scenes:
+        k = int(scene_path.stem.removeprefix("scene"))
+        scene = load_scene(model, scene_path)
+        req = load_request(model, folder / f"request{k:04d}.yaml", scene)
+        group = model.group(req.group)
+        checker = scene.checker(group)
+        valid = (
+            bool(group.within_limits(req.start))
+            and bool(group.within_limits(req.goal))
+            and not bool(checker.check(np.array([req.start, req.goal])).any())
+        )
+        for p in planners:
+            r = ProblemResult(robot, set_name, k, p or "robocell", valid)
+            if valid:
+                planner = Planner(scene)
+                request = MotionPlanRequest(
+                    req.group,
+                    JointGoal(req.goal),
+                    start=req.start,
+                    planning_time=timeout,
+                    seed=seed + k,
+                    planner_id=p,
+                    time_parameterize=False,
+                )
+                t0 = time.perf_counter()
+                plan = planner.plan(request)
+                r.time = time.perf_counter() - t0
+                r.solved = plan.success
+                r.path_length = plan.path_length if plan.success else float("nan")
+                r.reason = plan.reason
+            results[p].append(r)
+    rows = {}
+    for p, rs in results.items():
+        solved = [r for r in rs if r.solved]
+        times = np.array([r.time for r in rs if r.valid]) * 1e3
+        rows[p] = SetRow(
+            robot,
+            set_name,
+            p or "robocell",
+            len(rs),
+            sum(r.valid for r in rs),
+            len(solved),
+            float(np.median(times)) if len(times) else float("nan"),
+            float(np.percentile(times, 95)) if len(times) else float("nan"),
+            float(np.median([r.path_length for r in solved])) if solved else float("nan"),
+            rs,
+        )
+    return rows
+
+
+def run(
+    robots: list[str],
+    sets: list[str],
+    limit: int = 50,
+    timeout: float = 1.0,
+    baseline: str | None = None,
+    json_path: str | None = None,
+    mbm: str | None = None,
+    seed: int = 0,
+) -> int:
+    base = Path(mbm) if mbm else default_mbm_dir()
+    planners = [""] + (["RRTConnectkConfigDefault"] if baseline == "ompl" else [])
+    header = (
+        f"{'robot':6} {'set':17} {'planner':10} {'probs':>5} {'valid':>5} {'solved':>6} "
+        f"{'median ms':>10} {'p95 ms':>9} {'length':>7}"
+    )
+    if baseline:
+        header += f" {'speed-up':>9}"
+    print(f"planning time budget {timeout} s per problem, first {limit} problems per set")
+    print(header)
+    print("-" * len(header))
+    all_rows: list[SetRow] = []
+    for robot in robots:
+        model = load_robot(base, robot)
+        for s in sets:
+            rows = run_set(base, model, robot, s, planners, limit, timeout, seed)
+            native = rows[""]
+            for p in planners:
+                row = rows[p]
+                line = (
+                    f"{robot:6} {s:17} {row.planner[:10]:10} {row.problems:5d} {row.valid:5d} "
+                    f"{row.solved:6d} {row.median_ms:10.2f} {row.p95_ms:9.2f} "
+                    f"{row.median_length:7.2f}"
+                )
+                if baseline and p:
+                    line += f" {row.median_ms / native.median_ms:8.1f}x"
+                print(line, flush=True)
+                all_rows.append(row)
+    if json_path:
+        Path(json_path).write_text(
+            json.dumps([asdict(r) for r in all_rows], indent=1, default=float)
+        )
+        print(f"wrote {json_path}")
+    failed = [
+        r
+        for row in all_rows
+        if row.planner == "robocell"
+        for r in row.results
+        if r.valid and not r.solved
+    ]
+    for r in failed:
+        print(f"unsolved: {r.robot} {r.set} {r.problem}: {r.reason}")
+    return 0
