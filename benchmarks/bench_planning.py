@@ -1,6 +1,6 @@
 """MotionBenchMaker planning benchmark (same as ``robocell bench planning``).
 
-    python benchmarks/bench_planning.py --robots ur5 --sets table_pick --limit 10 --baseline ompl
+python benchmarks/bench_planning.py --robots ur5 --sets table_pick --limit 10 --baseline ompl
 """
 
 import sys

@@ -69,6 +69,14 @@ class KinematicTree:
                 lk = int(self.parent_link[j])
         return np.array(sorted(needed), dtype=np.int64)
 
+    def rigid_root(self, link: int) -> int:
+        """The link that ``link`` is welded to: up through fixed joints (var = −1) to the
+        child of the first moving joint (or the root)."""
+        by_child = {int(c): j for j, c in enumerate(self.child_link)}
+        while link in by_child and self.var[by_child[link]] < 0:
+            link = int(self.parent_link[by_child[link]])
+        return link
+
 
 @dataclass
 class LinkGeometry:

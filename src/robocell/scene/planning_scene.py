@@ -169,10 +169,19 @@ class PlanningScene:
         obj = self.get_object(id)
         self.robot.link_index(link, "attach_object")
         if touch_links is None:
+            # the link, and the links of an end effector on the same rigid body (a TCP frame
+            # welded to the flange carries the gripper mounted there)
             touch = {link}
-            for ee in self.robot.end_effectors.values():
-                if ee.parent_link == link or link in self.robot.group(ee.group).link_names:
-                    touch |= set(self.robot.group(ee.group).link_names)
+            tree, robot = self.robot.tree, self.robot
+            body = tree.rigid_root(robot.link_index(link))
+            for ee in robot.end_effectors.values():
+                ee_links = robot.group(ee.group).link_names
+                if (
+                    ee.parent_link == link
+                    or link in ee_links
+                    or tree.rigid_root(robot.link_index(ee.parent_link)) == body
+                ):
+                    touch |= set(ee_links)
         else:
             touch = set(touch_links)
             for t in touch:

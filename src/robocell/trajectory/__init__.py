@@ -2,11 +2,20 @@
 (time-optimal TOPP-RA, synchronized PTP, jerk-limited ruckig), plotting."""
 
 from robocell.trajectory.path import BlendedPath
-from robocell.trajectory.timing import jerk_limited, ptp, time_optimal, trapezoid_profile
+from robocell.trajectory.timing import (
+    Profile,
+    along_line,
+    jerk_limited,
+    ptp,
+    time_optimal,
+    trapezoid_profile,
+)
 from robocell.trajectory.trajectory import JointTrajectory, TrajectorySample, stationary
 
 __all__ = [
     "BlendedPath",
+    "Profile",
+    "along_line",
     "JointTrajectory",
     "TrajectorySample",
     "jerk_limited",

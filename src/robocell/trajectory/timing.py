@@ -10,6 +10,7 @@ uniformly until it is within; it is never returned over a limit.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -190,32 +191,53 @@ def _trapezoid(distance: float, v: float, a: float) -> tuple[float, float, float
     return 2.0 * t_acc + (distance - a * t_acc * t_acc) / v, v, t_acc
 
 
-def trapezoid_profile(
-    distance: float, v: float, a: float, dt: float = KNOT_DT
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Times and s, ṡ, s̈ of the fastest rest-to-rest trapezoid over ``distance``."""
+@dataclass(frozen=True)
+class Profile:
+    """A scalar motion profile s(t) at knot times: s, ṡ at the knots and s̈ inside each
+    knot interval (constant there: the knots include every switching time)."""
+
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
+    sd: NDArray[np.float64]
+    sdd: NDArray[np.float64]  # (K-1,) per interval
+
+
+def trapezoid_profile(distance: float, v: float, a: float, dt: float = KNOT_DT) -> Profile:
+    """The fastest rest-to-rest trapezoid (or triangle) over ``distance`` with speed ≤ v and
+    acceleration ≤ a, knots every ≤ dt and at both switching times."""
     T, vc, ta = _trapezoid(distance, v, a)
     acc = vc / ta if ta > 0 else 0.0
     n = max(2, int(math.ceil(T / dt)) + 1)
-    t = np.linspace(0.0, T, n)
-    s = np.empty(n)
-    sd = np.empty(n)
-    sdd = np.empty(n)
-    up = t < ta
-    down = t > T - ta
-    mid = ~(up | down)
-    s[up] = 0.5 * acc * t[up] ** 2
-    sd[up] = acc * t[up]
-    sdd[up] = acc
-    s[mid] = 0.5 * acc * ta * ta + vc * (t[mid] - ta)
-    sd[mid] = vc
-    sdd[mid] = 0.0
-    r = T - t[down]
-    s[down] = distance - 0.5 * acc * r**2
-    sd[down] = acc * r
-    sdd[down] = -acc
+    t = np.unique(np.concatenate([np.linspace(0.0, T, n), [ta, T - ta]]))
+    t = t[(t >= 0) & (t <= T)]
+    mid = 0.5 * (t[:-1] + t[1:])
+    sdd = np.where(mid < ta, acc, np.where(mid > T - ta, -acc, 0.0))
+    r = T - t
+    s = np.where(
+        t <= ta,
+        0.5 * acc * t**2,
+        np.where(t >= T - ta, distance - 0.5 * acc * r**2, 0.5 * acc * ta * ta + vc * (t - ta)),
+    )
+    sd = np.where(t <= ta, acc * t, np.where(t >= T - ta, acc * r, vc))
     s[-1], sd[-1] = distance, 0.0
-    return t, s, sd, sdd
+    return Profile(t, s, sd, sdd)
+
+
+def along_line(
+    group: JointGroup, a: NDArray[np.float64], d: NDArray[np.float64], p: Profile
+) -> JointTrajectory:
+    """The joint trajectory a + s(t) d of a profile along the straight line from a by d."""
+    seg = np.repeat(p.sdd[:, None, None] * d[None, None, :], 2, axis=1)
+    acc = np.vstack([seg[:, 0, :], seg[-1:, 1, :]])
+    return JointTrajectory(
+        list(group.joint_names),
+        p.t,
+        a + p.s[:, None] * d,
+        p.sd[:, None] * d,
+        acc,
+        group.name,
+        segment_accelerations=seg,
+    )
 
 
 def ptp(
@@ -247,15 +269,7 @@ def ptp(
     moving = np.abs(d) > 1e-12
     v_s = float(np.min(v_max[moving] / np.abs(d[moving])))
     a_s = float(np.min(a_max[moving] / np.abs(d[moving])))
-    t, s, sd, sdd = trapezoid_profile(1.0, v_s, a_s, dt)
-    traj = JointTrajectory(
-        list(group.joint_names),
-        t,
-        a + s[:, None] * d,
-        sd[:, None] * d,
-        sdd[:, None] * d,
-        group.name,
-    )
+    traj = along_line(group, a, d, trapezoid_profile(1.0, v_s, a_s, dt))
     traj.positions[-1] = b
     return traj
 

@@ -1,0 +1,116 @@
+"""MoveGroup: MoveIt's commander calls on a scene, in demo mode."""
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+from robocell import PlanningScene, Pose
+from robocell.cell import MoveGroup
+from robocell.errors import ExecutionError, ModelError, PlanningError
+
+
+@pytest.fixture
+def arm(irb120):
+    scene = PlanningScene(irb120)
+    scene.add_box("table", Pose([0.45, 0, -0.05]), [0.4, 0.8, 0.1])
+    g = MoveGroup(scene, "arm", time_scale=0)
+    g.set_end_effector_link("tcp")
+    return g
+
+
+def test_targets_of_each_kind(arm):
+    assert arm.get_named_targets() == ["home"]
+    target = Pose.from_rpy(0.35, 0.1, 0.2, 0, math.pi / 2, 0)
+    arm.set_pose_target(target)
+    assert arm.go()
+    assert arm.get_current_pose().isclose(target, atol=1e-5, rot_atol=1e-4)
+    arm.set_position_target([0.3, -0.2, 0.3])
+    assert arm.go()
+    assert np.allclose(arm.get_current_pose().position, [0.3, -0.2, 0.3], atol=1e-4)
+    arm.set_joint_value_target({"joint_1": 0.4})
+    assert arm.go()
+    assert arm.get_current_joint_values()[0] == pytest.approx(0.4)
+    arm.set_named_target("home")
+    plan = arm.plan()
+    assert plan.success and arm.execute(plan)
+    assert np.allclose(arm.get_current_joint_values(), 0, atol=1e-9)
+
+
+def test_plan_respects_scaling(arm):
+    arm.set_joint_value_target([1.0, 0.2, 0.1, 0.5, 0.5, 0.5])
+    fast = arm.plan()
+    arm.set_max_velocity_scaling_factor(0.25)
+    arm.set_max_acceleration_scaling_factor(0.25)
+    slow = arm.plan()
+    assert slow.trajectory.duration > 2 * fast.trajectory.duration
+    assert slow.trajectory.limit_violations(arm.group, 0.25, 0.25) == []
+
+
+def test_cartesian_and_relative_moves(arm):
+    arm.set_joint_value_target([0, 0.3, 0.2, 0, 0.9, 0])
+    assert arm.go()
+    p0 = arm.get_current_pose().position
+    traj, fraction = arm.compute_cartesian_path(
+        [Pose(p0 + [0, 0.05, 0.05], arm.get_current_pose().orientation)]
+    )
+    assert fraction == 1.0 and traj.duration > 0
+    cp = arm.move_relative((0, 0, 0.1))
+    assert cp.fraction == 1.0
+    assert np.allclose(arm.get_current_pose().position, p0 + [0, 0, 0.1], atol=1e-4)
+    cp = arm.move_relative((0, 0, 0.05), frame="tool")  # tool z is forward
+    assert cp.fraction == 1.0
+    # a move into the table is refused as a whole, with the reason; nothing moves
+    before = arm.get_current_joint_values()
+    cp = arm.move_relative((0, 0, -0.6))
+    assert cp.fraction < 1.0 and "table" in cp.reason
+    assert np.array_equal(arm.get_current_joint_values(), before)
+
+
+def test_non_blocking_execution_and_stop(irb120):
+    scene = PlanningScene(irb120)
+    arm = MoveGroup(scene, "arm", time_scale=1.0)
+    arm.set_max_velocity_scaling_factor(0.2)
+    arm.set_joint_value_target([1.5, 0, 0, 0, 0, 0])
+    t0 = time.perf_counter()
+    assert arm.go(wait=False)
+    assert time.perf_counter() - t0 < 0.5 + arm.planning_time
+    time.sleep(0.2)
+    arm.stop()
+    q = arm.get_current_joint_values()[0]
+    assert 0 < q < 1.5
+    assert arm.last_execution.result.status.value == "preempted"
+
+
+def test_attach_detach(arm):
+    arm.scene.add_box("part", Pose(arm.get_current_pose().position), [0.02, 0.02, 0.02])
+    held = arm.attach_object("part")
+    assert held.link == "tcp" and "gripper_left_finger" in held.touch_links
+    assert "part" in arm.scene.attached_objects
+    arm.detach_object("part")
+    assert "part" in arm.scene.world_objects
+
+
+def test_errors(arm):
+    with pytest.raises(PlanningError, match="no target"):
+        arm.plan()
+    with pytest.raises(ModelError, match="unknown named state 'hom'.*known: home"):
+        arm.set_named_target("hom")
+    with pytest.raises(PlanningError, match="unknown joint 'joint_7'.*joint_1"):
+        arm.set_joint_value_target({"joint_7": 0.1})
+    with pytest.raises(PlanningError, match="outside the limits"):
+        arm.set_joint_value_target([4, 0, 0, 0, 0, 0])
+    with pytest.raises(ModelError, match="unknown link"):
+        arm.set_pose_target(Pose([0.3, 0, 0.3]), link="hand")
+    with pytest.raises(PlanningError, match="position target"):
+        arm.set_position_target([0.3, np.nan, 0.3])
+    with pytest.raises(PlanningError, match="scaling"):
+        arm.set_max_velocity_scaling_factor(1.5)
+    with pytest.raises(ModelError, match="unknown group|known"):
+        MoveGroup(arm.scene, "arms")
+    arm.set_pose_target(Pose([1.5, 0, 0.3]))
+    with pytest.raises(PlanningError, match="no solution"):
+        arm.plan()
+    with pytest.raises(ExecutionError, match="JointTrajectory"):
+        arm.execute("plan")

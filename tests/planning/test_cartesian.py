@@ -1,0 +1,98 @@
+"""Cartesian paths: straight lines, fractions and their reasons, relative moves."""
+
+import math
+
+import numpy as np
+import pytest
+
+from robocell import PlanningScene, Pose
+from robocell.errors import PlanningError
+from robocell.kinematics import fk
+from robocell.planning.cartesian import compute_cartesian_path, relative_pose
+
+Q0 = np.array([0.0, 0.3, 0.2, 0.0, 0.9, 0.0])
+
+
+@pytest.fixture
+def scene(irb120):
+    s = PlanningScene(irb120)
+    s.set_joint_positions("arm", Q0)
+    return s
+
+
+def test_straight_line_is_straight(scene):
+    arm = scene.robot.group("arm")
+    T0 = scene.link_pose("tcp")
+    target = relative_pose(T0, (0.0, 0.12, 0.08))
+    cp = compute_cartesian_path(scene, "arm", [target], eef_step=0.005, link="tcp")
+    assert cp.fraction == 1.0 and cp.reason == ""
+    pts = np.array([fk(arm, q, "tcp")[:3, 3] for q in cp.path])
+    a, b = T0.position, target.position
+    d = (b - a) / np.linalg.norm(b - a)
+    off_line = np.linalg.norm((pts - a) - ((pts - a) @ d)[:, None] * d, axis=1)
+    assert off_line.max() < 1e-5
+    # orientation held, steps no longer than eef_step
+    for q in cp.path:
+        assert np.allclose(fk(arm, q, "tcp")[:3, :3], T0.rotation(), atol=1e-5)
+    assert np.linalg.norm(np.diff(pts, axis=0), axis=1).max() <= 0.005 + 1e-6
+
+
+def test_collision_stops_the_path_and_says_with_what(scene):
+    T0 = scene.link_pose("tcp")
+    scene.add_box("post", Pose(T0.position + [0.0, 0.1, 0.0]), [0.05, 0.02, 0.4])
+    cp = compute_cartesian_path(scene, "arm", [relative_pose(T0, (0, 0.2, 0))], link="tcp")
+    assert 0.0 < cp.fraction < 0.5
+    assert "collision" in cp.reason and "post" in cp.reason
+    # without collision avoidance the line goes through
+    free = compute_cartesian_path(
+        scene, "arm", [relative_pose(T0, (0, 0.2, 0))], link="tcp", avoid_collisions=False
+    )
+    assert free.fraction == 1.0
+
+
+def test_out_of_reach_says_no_ik(scene):
+    T0 = scene.link_pose("tcp")
+    cp = compute_cartesian_path(scene, "arm", [relative_pose(T0, (0.8, 0, 0))], link="tcp")
+    assert cp.fraction < 1.0 and "no IK" in cp.reason
+
+
+def test_joint_limit_reason(scene):
+    # turning the tool about its axis by more than joint 6 allows (±400°) is refused at the limit
+    arm = scene.robot.group("arm")
+    q = Q0.copy()
+    q[5] = arm.upper[5] - 0.05
+    scene.set_joint_positions("arm", q)
+    T0 = scene.link_pose("tool0")
+    target = relative_pose(T0, rpy=(0.3, 0, 0), frame="tool")
+    cp = compute_cartesian_path(scene, "arm", [target], link="tool0")
+    assert cp.fraction < 1.0 and "joint limit" in cp.reason and "joint_6" in cp.reason
+
+
+def test_jump_threshold(scene):
+    T0 = scene.link_pose("tcp")
+    cp = compute_cartesian_path(
+        scene, "arm", [relative_pose(T0, (0, 0.1, 0))], link="tcp", jump_threshold=1.5
+    )
+    assert cp.fraction == 1.0  # a smooth line has no jump
+
+
+def test_relative_pose_frames():
+    T = Pose.from_rpy(0.3, 0.0, 0.2, 0, math.pi / 2, 0)  # tool z points along world x
+    assert np.allclose(relative_pose(T, (0, 0, 0.1)).position, [0.3, 0.0, 0.3])
+    assert np.allclose(relative_pose(T, (0, 0, 0.1), frame="tool").position, [0.4, 0.0, 0.2])
+    base = Pose.from_rpy(0, 0, 0, 0, 0, math.pi / 2)
+    assert np.allclose(
+        relative_pose(T, (0.1, 0, 0), frame="base", T_world_base=base).position, [0.3, 0.1, 0.2]
+    )
+    with pytest.raises(PlanningError, match="known: base, tool, world"):
+        relative_pose(T, (0, 0, 0.1), frame="flange")
+
+
+def test_bad_arguments(scene):
+    T0 = scene.link_pose("tcp")
+    with pytest.raises(PlanningError, match="eef_step"):
+        compute_cartesian_path(scene, "arm", [T0], eef_step=0)
+    with pytest.raises(PlanningError, match="at least one waypoint"):
+        compute_cartesian_path(scene, "arm", [])
+    with pytest.raises(PlanningError, match="waypoint 0"):
+        compute_cartesian_path(scene, "arm", ["up"])

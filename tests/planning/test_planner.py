@@ -1,0 +1,176 @@
+"""The planner: goals of each kind, validation of the executed path, errors."""
+
+import math
+
+import numpy as np
+import pytest
+
+from robocell import PlanningScene, Pose
+from robocell.errors import ModelError, PlanningError
+from robocell.kinematics import fk
+from robocell.planning import (
+    JointGoal,
+    MotionPlanRequest,
+    Planner,
+    PoseGoal,
+    PositionGoal,
+)
+from robocell.scene.moveit_yaml import load_request, load_scene
+from robocell.trajectory import BlendedPath
+from tests.conftest import mbm_dir
+
+START = np.array([-1.2, 0.3, 0.2, 0.0, 0.8, 0.0])
+GOAL = np.array([1.2, 0.3, 0.2, 0.0, 0.8, 0.0])
+
+
+@pytest.fixture
+def walled(irb120):
+    """The IRB 120 with a wall between START and GOAL (the straight joint path crosses it)."""
+    scene = PlanningScene(irb120)
+    scene.add_box("wall", Pose([0.4, 0.0, 0.35]), [0.5, 0.04, 0.5])
+    scene.add_box("floor", Pose([0, 0, -0.02]), [2.0, 2.0, 0.02])
+    return scene
+
+
+def _assert_valid(scene, group, plan, resolution=0.005):
+    """The plan's executed path (samples of its trajectory) is collision-free, exactly."""
+    assert plan.success, plan.reason
+    checker = scene.checker(group)
+    traj = plan.trajectory
+    states = traj.sample(np.linspace(0, traj.duration, 2000)).positions
+    steps = np.abs(np.diff(states, axis=0)).max()
+    assert steps < 0.02
+    assert not checker.check_exact(states).any()
+    bp_states = BlendedPath(plan.path, 0.0).sample_states(resolution)
+    assert traj.limit_violations(group) == []
+    assert bp_states.shape[1] == group.dof
+
+
+def test_joint_goal_around_a_wall(walled):
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    assert checker.check_motion(START, GOAL)  # the straight path is blocked
+    plan = Planner(walled).plan(MotionPlanRequest("arm", JointGoal(GOAL), start=START))
+    _assert_valid(walled, arm, plan)
+    assert np.allclose(plan.path[0], START) and np.allclose(plan.path[-1], GOAL)
+    assert np.allclose(plan.trajectory.positions[-1], GOAL)
+    assert len(plan.path) >= 3
+
+
+def test_seeded_planning_is_reproducible(walled):
+    p = Planner(walled)
+    a = p.plan(MotionPlanRequest("arm", JointGoal(GOAL), start=START, seed=5))
+    b = p.plan(MotionPlanRequest("arm", JointGoal(GOAL), start=START, seed=5))
+    assert np.array_equal(a.path, b.path)
+
+
+def test_pose_goal_reaches_the_pose(walled):
+    arm = walled.robot.group("arm")
+    target = Pose.from_rpy(0.3, 0.25, 0.3, 0, math.pi / 2, 0)
+    plan = Planner(walled).plan(MotionPlanRequest("arm", PoseGoal("tcp", target), start=START))
+    _assert_valid(walled, arm, plan)
+    T = fk(arm, plan.path[-1], "tcp")
+    assert np.allclose(T[:3, 3], target.position, atol=1e-5)
+    assert np.allclose(T[:3, :3], target.rotation(), atol=1e-5)
+
+
+def test_position_goal(walled):
+    arm = walled.robot.group("arm")
+    p = np.array([0.25, -0.3, 0.25])
+    plan = Planner(walled).plan(MotionPlanRequest("arm", PositionGoal("tcp", p), start=START))
+    _assert_valid(walled, arm, plan)
+    assert np.allclose(fk(arm, plan.path[-1], "tcp")[:3, 3], p, atol=1e-4)
+
+
+def test_named_goal_and_mbm_problem(mbm_ur5):
+    folder = mbm_dir() / "ur5" / "problems" / "bookshelf_small_ur5"
+    scene = load_scene(mbm_ur5, folder / "scene0001.yaml")
+    req = load_request(mbm_ur5, folder / "request0001.yaml", scene)
+    group = mbm_ur5.group(req.group)
+    plan = Planner(scene).plan(
+        MotionPlanRequest(req.group, JointGoal(req.goal), start=req.start, planning_time=5.0)
+    )
+    _assert_valid(scene, group, plan)
+
+
+def test_unsolved_in_time_is_a_result_not_an_error(walled):
+    # the straight path is blocked, and 1 ms is not enough for anything else
+    plan = Planner(walled).plan(
+        MotionPlanRequest("arm", JointGoal(GOAL), start=START, planning_time=1e-3)
+    )
+    assert not plan.success
+    assert "no path found" in plan.reason and plan.trajectory is None
+
+
+def test_errors(walled):
+    planner = Planner(walled)
+    with pytest.raises(ModelError, match="known: arm"):
+        planner.plan(MotionPlanRequest("arms", JointGoal(GOAL)))
+    with pytest.raises(PlanningError, match="joint_1"):
+        planner.plan(
+            MotionPlanRequest("arm", JointGoal(np.array([4.0, 0, 0, 0, 0, 0])), start=START)
+        )
+    with pytest.raises(ModelError, match="NaN"):
+        planner.plan(
+            MotionPlanRequest("arm", JointGoal(np.array([np.nan, 0, 0, 0, 0, 0])), start=START)
+        )
+    with pytest.raises(PlanningError, match="in collision: .*wall"):
+        planner.plan(
+            MotionPlanRequest("arm", JointGoal(GOAL), start=np.array([0, 0.6, 0.3, 0, 0, 0]))
+        )
+    with pytest.raises(ModelError, match="unknown link .tcpp.; known: .*tcp"):
+        planner.plan(MotionPlanRequest("arm", PoseGoal("tcpp", Pose([0.3, 0, 0.3])), start=START))
+    with pytest.raises(PlanningError, match="no solution.*(out of reach|reach)"):
+        planner.plan(MotionPlanRequest("arm", PoseGoal("tcp", Pose([2.0, 0, 0.3])), start=START))
+    with pytest.raises(PlanningError, match="collision"):
+        # inside the wall: reachable, but every solution collides
+        planner.plan(
+            MotionPlanRequest(
+                "arm",
+                PoseGoal("tcp", Pose.from_rpy(0.4, 0.0, 0.35, 0, math.pi / 2, 0)),
+                start=START,
+            )
+        )
+    with pytest.raises(PlanningError, match="planning time"):
+        planner.plan(MotionPlanRequest("arm", JointGoal(GOAL), start=START, planning_time=0))
+    with pytest.raises(PlanningError, match="unknown planner"):
+        planner.plan(MotionPlanRequest("arm", JointGoal(GOAL), start=START, planner_id="RRTfast"))
+
+
+def test_fix_start_nudges_out_of_collision(walled):
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    # a start just touching the floor
+    q = START.copy()
+    while not checker.check(q)[0]:
+        q[1] += 0.005
+    with pytest.raises(PlanningError, match="start state in collision: .*floor"):
+        Planner(walled).plan(MotionPlanRequest("arm", JointGoal(START), start=q))
+    plan = Planner(walled).plan(MotionPlanRequest("arm", JointGoal(START), start=q, fix_start=True))
+    assert plan.success
+    assert np.allclose(plan.path[0], q)  # the original start, then the nudged one
+    assert not checker.check(plan.path[1])[0]
+    assert np.abs(plan.path[1] - q).max() < 0.2
+
+
+def test_attempts_keep_the_shortest(walled):
+    one = Planner(walled).plan(MotionPlanRequest("arm", JointGoal(GOAL), start=START, seed=1))
+    many = Planner(walled).plan(
+        MotionPlanRequest("arm", JointGoal(GOAL), start=START, seed=1, attempts=4, planning_time=5)
+    )
+    assert many.success and many.path_length <= one.path_length + 1e-9
+
+
+def test_ompl_backend(walled):
+    pytest.importorskip("ompl")
+    arm = walled.robot.group("arm")
+    plan = Planner(walled).plan(
+        MotionPlanRequest(
+            "arm",
+            JointGoal(GOAL),
+            start=START,
+            planner_id="RRTConnectkConfigDefault",
+            planning_time=5.0,
+        )
+    )
+    _assert_valid(walled, arm, plan)

@@ -1,0 +1,64 @@
+"""Blended joint paths: exact derivatives, bounded corner deviation, continuity."""
+
+import numpy as np
+import pytest
+
+from robocell.errors import PlanningError
+from robocell.trajectory import BlendedPath
+
+
+def _polyline_distance(points: np.ndarray, wp: np.ndarray) -> np.ndarray:
+    """Distance of each point to the nearest point of the polyline wp."""
+    best = np.full(len(points), np.inf)
+    for a, b in zip(wp[:-1], wp[1:], strict=True):
+        d = b - a
+        t = np.clip(((points - a) @ d) / (d @ d), 0, 1)
+        best = np.minimum(best, np.linalg.norm(points - (a + t[:, None] * d), axis=1))
+    return best
+
+
+@pytest.fixture
+def waypoints() -> np.ndarray:
+    rng = np.random.default_rng(3)
+    return np.cumsum(rng.normal(0, 0.5, (6, 4)), axis=0)
+
+
+def test_derivatives_match_finite_differences(waypoints):
+    bp = BlendedPath(waypoints, 0.1)
+    s = np.linspace(1e-4, bp.length - 1e-4, 3001)
+    h = 1e-6
+    d1 = (bp(s + h) - bp(s - h)) / (2 * h)
+    d2 = (bp(s + h, 1) - bp(s - h, 1)) / (2 * h)
+    interior = np.min(np.abs(s[:, None] - bp.breakpoints[None, :]), axis=1) > 2 * h
+    assert np.allclose(d1[interior], bp(s[interior], 1), atol=1e-6)
+    assert np.allclose(d2[interior], bp(s[interior], 2), atol=1e-4)
+    # unit speed: s is arc length
+    assert np.allclose(np.linalg.norm(bp(s, 1), axis=1), 1.0)
+
+
+def test_path_ends_at_waypoints_and_stays_within_deviation(waypoints):
+    for dev in (0.0, 0.02, 0.1):
+        bp = BlendedPath(waypoints, dev)
+        assert np.allclose(bp(0.0), waypoints[0])
+        assert np.allclose(bp(bp.length), waypoints[-1])
+        pts = bp.sample_states(0.005)
+        assert _polyline_distance(pts, waypoints).max() <= dev + 1e-9
+
+
+def test_sample_states_respects_resolution(waypoints):
+    bp = BlendedPath(waypoints, 0.05)
+    pts = bp.sample_states(0.01)
+    assert np.abs(np.diff(pts, axis=0)).max() <= 0.01 + 1e-12
+
+
+def test_sharp_corners_are_stops(waypoints):
+    assert len(BlendedPath(waypoints, 0.0).stops) == len(waypoints) - 2
+    assert BlendedPath(waypoints, 0.05).stops == []
+    # collinear waypoints are not a corner
+    line = np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]])
+    assert BlendedPath(line, 0.0).stops == []
+
+
+def test_bad_waypoints_are_refused():
+    with pytest.raises(PlanningError, match="waypoints"):
+        BlendedPath(np.zeros(3))

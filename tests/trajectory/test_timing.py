@@ -1,0 +1,110 @@
+"""Time parameterization: limits hold at every sample, rest to rest, the path is kept."""
+
+import numpy as np
+import pytest
+
+from robocell.errors import PlanningError
+from robocell.trajectory import BlendedPath, jerk_limited, ptp, time_optimal
+
+
+@pytest.fixture
+def arm(irb120):
+    return irb120.group("arm")
+
+
+@pytest.fixture
+def path(arm) -> np.ndarray:
+    rng = np.random.default_rng(1)
+    return arm.random(rng, 4) * 0.5
+
+
+@pytest.mark.parametrize("deviation", [0.0, 0.05, 0.2])
+def test_time_optimal_within_limits_and_at_rest(arm, path, deviation):
+    traj = time_optimal(arm, path, max_deviation=deviation)
+    assert traj.limit_violations(arm) == []
+    assert np.allclose(traj.positions[0], path[0]) and np.allclose(traj.positions[-1], path[-1])
+    assert np.allclose(traj.velocities[[0, -1]], 0.0)
+    # the trajectory follows the blended path (within the corner deviation)
+    bp = BlendedPath(path, deviation)
+    dense = bp.sample_states(0.002)
+    pts = traj.sample(np.linspace(0, traj.duration, 500)).positions
+    gap = np.min(np.linalg.norm(pts[:, None, :] - dense[None, :, :], axis=2), axis=1)
+    assert gap.max() < 2e-3
+
+
+def test_time_optimal_is_tight(arm, path):
+    """Time-optimal: some joint runs at its velocity or acceleration limit most of the time."""
+    traj = time_optimal(arm, path, max_deviation=0.05)
+    s = traj.sample(np.linspace(0, traj.duration, 2000))
+    at_limit = np.maximum(
+        np.max(np.abs(s.velocities) / arm.velocity, axis=1),
+        np.max(np.abs(s.accelerations) / arm.acceleration, axis=1),
+    )
+    assert np.mean(at_limit > 0.95) > 0.8
+
+
+def test_rounded_corners_are_faster_than_stops(arm, path):
+    stop = time_optimal(arm, path, max_deviation=0.0)
+    round_ = time_optimal(arm, path, max_deviation=0.1)
+    assert round_.duration < stop.duration
+
+
+def test_scaling_factors_slow_down(arm, path):
+    full = time_optimal(arm, path)
+    half = time_optimal(arm, path, velocity_scaling=0.5, acceleration_scaling=0.5)
+    assert half.duration > 1.4 * full.duration
+    assert half.limit_violations(arm, 0.5, 0.5) == []
+    with pytest.raises(PlanningError, match="scaling"):
+        time_optimal(arm, path, velocity_scaling=0.0)
+    with pytest.raises(PlanningError, match="scaling"):
+        time_optimal(arm, path, acceleration_scaling=1.5)
+
+
+def test_ptp_synchronized_trapezoid(arm):
+    a = np.zeros(6)
+    b = np.array([1.0, -0.5, 0.3, 2.0, 0.1, -1.0])
+    traj = ptp(arm, a, b)
+    assert traj.limit_violations(arm) == []
+    # a straight line in joint space: every sample is a + s (b - a)
+    pts = traj.sample(np.linspace(0, traj.duration, 300)).positions
+    s = (pts - a) @ (b - a) / ((b - a) @ (b - a))
+    assert np.allclose(pts, a + s[:, None] * (b - a), atol=1e-9)
+    # the limiting joint reaches its velocity or acceleration limit
+    sm = traj.sample(np.linspace(0, traj.duration, 2000))
+    ratio = max(
+        np.max(np.abs(sm.velocities) / arm.velocity),
+        np.max(np.abs(sm.accelerations) / arm.acceleration),
+    )
+    assert ratio > 0.99
+    # duration from the closed form for the limiting joint (joint 4: 2 rad at 5.585 rad/s, 50 rad/s²)
+    d, v, acc = 2.0, arm.velocity[3], arm.acceleration[3]
+    t_acc = v / acc
+    expect = 2 * t_acc + (d - acc * t_acc**2) / v if acc * t_acc**2 < d else 2 * np.sqrt(d / acc)
+    assert traj.duration == pytest.approx(max(expect, 0), rel=1e-3) or traj.duration > expect
+
+
+def test_ptp_rejects_out_of_limits(arm):
+    with pytest.raises(PlanningError, match="joint_1"):
+        ptp(arm, np.zeros(6), np.array([4.0, 0, 0, 0, 0, 0]))
+
+
+def test_jerk_limited(arm, path):
+    traj = jerk_limited(arm, path)
+    assert traj.limit_violations(arm) == []
+    # the knots are exact samples of ruckig's profile: the mean jerk between two is bounded
+    jerk = np.diff(traj.accelerations, axis=0) / np.diff(traj.times)[:, None]
+    assert np.max(np.abs(jerk) / arm.jerk) < 1.0 + 1e-6
+    for w in path:  # passes through every waypoint (stops there)
+        assert np.min(np.linalg.norm(traj.positions - w, axis=1)) < 1e-6
+
+
+def test_resample_and_sample(arm, path):
+    traj = time_optimal(arm, path)
+    r = traj.resample(0.01)
+    assert np.allclose(np.diff(r.times)[:-1], 0.01)
+    # the new knots are the old trajectory's states; between them it stays within 0.1 mrad
+    assert np.allclose(r.positions, traj.sample(r.times).positions, atol=1e-12)
+    t = np.linspace(0, traj.duration, 777)
+    assert np.allclose(r.sample(t).positions, traj.sample(t).positions, atol=1e-4)
+    with pytest.raises(PlanningError):
+        traj.resample(0.0)
