@@ -76,11 +76,13 @@ def test_ptp_synchronized_trapezoid(arm):
         np.max(np.abs(sm.accelerations) / arm.acceleration),
     )
     assert ratio > 0.99
-    # duration from the closed form for the limiting joint (joint 4: 2 rad at 5.585 rad/s, 50 rad/s²)
-    d, v, acc = 2.0, arm.velocity[3], arm.acceleration[3]
-    t_acc = v / acc
-    expect = 2 * t_acc + (d - acc * t_acc**2) / v if acc * t_acc**2 < d else 2 * np.sqrt(d / acc)
-    assert traj.duration == pytest.approx(max(expect, 0), rel=1e-3) or traj.duration > expect
+    # the duration is the slowest joint's fastest trapezoid (closed form)
+    times = []
+    for dj, vj, aj in zip(np.abs(b - a), arm.velocity, arm.acceleration, strict=True):
+        t_acc = vj / aj
+        full = aj * t_acc**2 < dj
+        times.append(2 * t_acc + (dj - aj * t_acc**2) / vj if full else 2 * np.sqrt(dj / aj))
+    assert traj.duration == pytest.approx(max(times), rel=1e-9)
 
 
 def test_ptp_rejects_out_of_limits(arm):
