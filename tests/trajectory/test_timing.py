@@ -110,3 +110,11 @@ def test_resample_and_sample(arm, path):
     assert np.allclose(r.sample(t).positions, traj.sample(t).positions, atol=1e-4)
     with pytest.raises(PlanningError):
         traj.resample(0.0)
+
+
+def test_plot_writes_a_png(arm, path, tmp_path):
+    from robocell.trajectory import plot_trajectory
+
+    out = plot_trajectory(time_optimal(arm, path), tmp_path / "traj.png", arm)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert out.stat().st_size > 10_000

@@ -40,7 +40,7 @@ class PlannerConfig:
 
     resolution: float = 0.05
     validation_resolution: float = 0.01
-    step: float = 0.8
+    step: float = 1.0
     max_deviation: float = 0.05
     shortcut: bool = True
     ik_timeout: float = 0.05

@@ -55,6 +55,21 @@ class Edges:
         k = int(np.argmax(hit))
         return k if hit[k] else len(qs)
 
+    def free_prefix(self, qs: NDArray[np.float64], first: int = 4) -> int:
+        """How many leading states of ``qs`` are free: checked in chunks that double in size
+        (4, 8, 16, …), so a collision near the start costs few checks and a long free run
+        is still checked in large batches."""
+        done = 0
+        size = first
+        while done < len(qs):
+            chunk = qs[done : done + size]
+            k = self.first_hit(chunk)
+            if k < len(chunk):
+                return done + k
+            done += len(chunk)
+            size *= 2
+        return done
+
     def free(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
         """Whether the segment a → b (b included, a assumed free) is collision-free. States are
         checked coarse-to-fine (every 8th first), so a blocked edge is usually found early."""
@@ -162,7 +177,7 @@ def _extend(
         return None
     target = q_to if dist <= step else q_from + d * (step / dist)
     qs = edges.states(q_from, target)
-    k = edges.first_hit(qs)
+    k = edges.free_prefix(qs)
     if k == 0:
         return None
     return target if k == len(qs) else qs[k - 1]

@@ -2,6 +2,7 @@
 (time-optimal TOPP-RA, synchronized PTP, jerk-limited ruckig), plotting."""
 
 from robocell.trajectory.path import BlendedPath
+from robocell.trajectory.plot import plot_trajectory
 from robocell.trajectory.timing import (
     Profile,
     along_line,
@@ -16,6 +17,7 @@ __all__ = [
     "BlendedPath",
     "Profile",
     "along_line",
+    "plot_trajectory",
     "JointTrajectory",
     "TrajectorySample",
     "jerk_limited",

@@ -55,7 +55,8 @@ class BlendedPath(AbstractGeometricPath):  # type: ignore[misc]
                 continue  # a reversal cannot be rounded; the motion stops there
             half = 0.5 * alpha
             # deviation of the arc's midpoint from the corner: r (1/cos(half) - 1)
-            r = max_deviation * math.cos(half) / (1.0 - math.cos(half))
+            # 1 − cos(half) written as 2 sin²(half/2): exact for tiny turns too
+            r = max_deviation * math.cos(half) / (2.0 * math.sin(0.5 * half) ** 2)
             ell = r * math.tan(half)
             ell = min(ell, 0.5 * seg_len[i - 1], 0.5 * seg_len[i])
             r = ell / math.tan(half)
