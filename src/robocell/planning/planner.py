@@ -73,7 +73,10 @@ class Planner:
         checker = self.scene.checker(group)
         start, prefix = self._start(group, request, checker)
         goals = self.goal_configurations(group, request.goal, start, checker)
-        deadline = t0 + request.planning_time
+        # the search's budget starts once the checker exists and the goals are known: building
+        # a scene's sphere model and compiling kernels happen once, not per plan, and IK has
+        # its own time budget
+        deadline = time.perf_counter() + request.planning_time
         rng = np.random.default_rng(request.seed)
         planner_name = request.planner_id.strip()
         resolution = cfg.resolution
