@@ -118,3 +118,22 @@ def test_plot_writes_a_png(arm, path, tmp_path):
     out = plot_trajectory(time_optimal(arm, path), tmp_path / "traj.png", arm)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert out.stat().st_size > 10_000
+
+
+def test_smooth_path_through_dense_samples_is_exactly_time_optimal(arm):
+    """Dense samples of a smooth curve: the spline goes through each sample, and the profile
+    needs no slowing down after the fact."""
+    s = np.linspace(0, 1, 80)[:, None]
+    curve = np.hstack([0.8 * np.sin(2 * s), 0.3 * s, 0.5 * s**2, 0.2 * s, np.cos(s), 0.1 * s])
+    traj = time_optimal(arm, curve, smooth=True)
+    assert traj.limit_violations(arm) == []
+    assert traj.info.get("slowed_by", 1.0) < 1.01
+    for q in curve[::10]:
+        assert (
+            np.min(
+                np.linalg.norm(
+                    traj.sample(np.linspace(0, traj.duration, 4000)).positions - q, axis=1
+                )
+            )
+            < 2e-3
+        )

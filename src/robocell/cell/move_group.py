@@ -282,14 +282,14 @@ class MoveGroup:
                 rotation_step,
                 start,
             )
-        # the steps are ≤ eef_step apart: rounding their corners within 1 mrad keeps the tool
-        # on the line to a fraction of a millimetre, and lets the motion flow through them
+        # the steps are dense samples of a smooth joint curve: a spline through them follows
+        # it (a polyline would have a corner at every step)
         traj = time_optimal(
             self.group,
             cp.path if len(cp.path) > 1 else cp.path[[0, 0]],
             self.velocity_scaling,
             self.acceleration_scaling,
-            max_deviation=1e-3,
+            smooth=True,
         )
         return CartesianPlan(traj, cp.fraction, cp.reason)
 

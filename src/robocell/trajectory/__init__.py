@@ -1,7 +1,7 @@
 """Trajectories: joint trajectories, blended joint-space paths and time parameterization
 (time-optimal TOPP-RA, synchronized PTP, jerk-limited ruckig), plotting."""
 
-from robocell.trajectory.path import BlendedPath
+from robocell.trajectory.path import BlendedPath, SplinePath
 from robocell.trajectory.plot import plot_trajectory
 from robocell.trajectory.timing import (
     Profile,
@@ -15,6 +15,7 @@ from robocell.trajectory.trajectory import JointTrajectory, TrajectorySample, st
 
 __all__ = [
     "BlendedPath",
+    "SplinePath",
     "Profile",
     "along_line",
     "plot_trajectory",

@@ -180,7 +180,7 @@ class BlendedPath(AbstractGeometricPath):  # type: ignore[misc]
 class SubPath(AbstractGeometricPath):  # type: ignore[misc]
     """The stretch [s0, s1] of a path, re-parameterized to start at 0."""
 
-    def __init__(self, path: BlendedPath, s0: float, s1: float) -> None:
+    def __init__(self, path: BlendedPath | SplinePath, s0: float, s1: float) -> None:
         self.path, self.s0, self.s1 = path, s0, s1
 
     @property
@@ -194,3 +194,60 @@ class SubPath(AbstractGeometricPath):  # type: ignore[misc]
     def __call__(self, path_positions: ArrayLike, order: int = 0) -> NDArray[np.float64]:
         s = np.clip(np.asarray(path_positions, dtype=float), 0.0, self.s1 - self.s0)
         return self.path(s + self.s0, order)
+
+
+class SplinePath(AbstractGeometricPath):  # type: ignore[misc]
+    """A cubic spline through dense ``waypoints`` (K, dof) parameterized by chord length: the
+    path for samples of a smooth curve (a Cartesian line's IK solutions, say), which it follows
+    through every sample, without the corners a polyline would have."""
+
+    def __init__(self, waypoints: ArrayLike) -> None:
+        from scipy.interpolate import CubicSpline
+
+        wp = np.asarray(waypoints, dtype=float)
+        if wp.ndim != 2 or wp.shape[0] < 2:
+            raise PlanningError(f"a path needs (K >= 2, dof) waypoints, got shape {wp.shape}")
+        keep = np.concatenate([[True], np.linalg.norm(np.diff(wp, axis=0), axis=1) > 1e-9])
+        wp = wp[keep]
+        if wp.shape[0] < 2:
+            wp = np.vstack([wp, wp + 1e-9])
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(wp, axis=0), axis=1))])
+        self._spline = CubicSpline(s, wp, bc_type="natural" if len(wp) > 2 else "not-a-knot")
+        self._dof = wp.shape[1]
+        self._length = float(s[-1])
+        self.breakpoints = s
+        self.stops: list[float] = []
+
+    @property
+    def dof(self) -> int:
+        return self._dof
+
+    @property
+    def path_interval(self) -> NDArray[np.float64]:
+        return np.array([0.0, self._length])
+
+    @property
+    def length(self) -> float:
+        return self._length
+
+    def __call__(self, path_positions: ArrayLike, order: int = 0) -> NDArray[np.float64]:
+        s = np.clip(np.asarray(path_positions, dtype=float), 0.0, self._length)
+        return np.asarray(self._spline(s, order))
+
+    def grid(self, step: float, arc_pieces: int = 12) -> NDArray[np.float64]:
+        """Every waypoint and the midpoints between them, and at least every ``step``."""
+        mids = 0.5 * (self.breakpoints[:-1] + self.breakpoints[1:])
+        n = max(1, int(math.ceil(self._length / step)))
+        return np.unique(
+            np.concatenate([self.breakpoints, mids, np.linspace(0, self._length, n + 1)])
+        )
+
+    def split_at_stops(self) -> list[tuple[float, float]]:
+        return [(0.0, self._length)]
+
+    def sample_states(self, resolution: float) -> NDArray[np.float64]:
+        """Points at most ``resolution`` apart per joint (the spline's speed bounds the step)."""
+        ss = np.linspace(0.0, self._length, 64 * len(self.breakpoints))
+        rate = float(np.max(np.abs(self(ss, 1)))) * 1.05
+        n = max(1, int(math.ceil(self._length * rate / resolution)))
+        return self(np.union1d(np.linspace(0.0, self._length, n + 1), self.breakpoints))

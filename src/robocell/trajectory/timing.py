@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robocell.errors import PlanningError
 from robocell.robot.model import JointGroup
-from robocell.trajectory.path import BlendedPath, SubPath
+from robocell.trajectory.path import BlendedPath, SplinePath, SubPath
 from robocell.trajectory.trajectory import JointTrajectory, stationary
 
 KNOT_DT = 0.004  # [s] knot spacing of generated trajectories (250 Hz, a servo rate)
@@ -58,24 +58,28 @@ def fit_to_limits(
 
 def time_optimal(
     group: JointGroup,
-    path: ArrayLike | BlendedPath,
+    path: ArrayLike | BlendedPath | SplinePath,
     velocity_scaling: float = 1.0,
     acceleration_scaling: float = 1.0,
     max_deviation: float = 0.05,
     grid_step: float = 0.04,
     dt: float = KNOT_DT,
+    smooth: bool = False,
 ) -> JointTrajectory:
     """Time-optimal trajectory along ``path`` (waypoints (K, dof) or a :class:`BlendedPath`)
     under the group's joint velocity and acceleration limits, from rest to rest (TOPP-RA).
 
     Waypoint corners are rounded within ``max_deviation`` [rad] (0: stop at each corner);
-    ``grid_step`` [rad of path] sets TOPP-RA's grid (plus every segment boundary).
+    ``smooth`` instead passes a cubic spline through the waypoints (for dense samples of a
+    smooth curve, such as a Cartesian path's). ``grid_step`` [rad of path] sets TOPP-RA's grid
+    (plus every segment boundary).
     """
     import toppra as ta
 
     ta.setup_logging("WARNING")
     v_max, a_max = _limits(group, velocity_scaling, acceleration_scaling)
-    if isinstance(path, BlendedPath):
+    bp: BlendedPath | SplinePath
+    if isinstance(path, BlendedPath | SplinePath):
         bp = path
     else:
         wp = np.asarray(path, dtype=float)
@@ -86,7 +90,7 @@ def time_optimal(
             )
         if wp.shape[0] == 1 or np.allclose(wp, wp[0], atol=1e-12):
             return stationary(group, wp[0])
-        bp = BlendedPath(wp, max_deviation)
+        bp = SplinePath(wp) if smooth else BlendedPath(wp, max_deviation)
     if bp.length < 1e-9:
         return stationary(group, bp(0.0))
     pieces = []
@@ -104,7 +108,7 @@ def time_optimal(
 
 def _toppra_piece(
     group: JointGroup,
-    bp: BlendedPath,
+    bp: BlendedPath | SplinePath,
     grid: NDArray[np.float64],
     v_max: NDArray[np.float64],
     a_max: NDArray[np.float64],
@@ -146,6 +150,10 @@ def _toppra_piece(
     ts_l, s_l, sd_l, u_l, iv_l = [], [], [], [], []
     for i in range(len(g_t) - 1):
         h = g_t[i + 1] - g_t[i]
+        if h < 1e-5 and 0 < i < len(g_t) - 2:
+            # a grid interval this short (the point set just before a breakpoint) gets no
+            # knot of its own: a quintic over microseconds only amplifies rounding errors
+            continue
         m = max(1, int(math.ceil(h / dt)))
         tau = np.linspace(0.0, h, m + 1)[:-1]
         ts_l.append(g_t[i] + tau)
