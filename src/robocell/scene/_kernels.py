@@ -122,6 +122,7 @@ def _classify_state(  # type: ignore[no-untyped-def]
     obs_kind,
     obs_T,
     obs_dims,
+    obs_sphere,
     obs_inner_ok,
     world_pairs,
     self_pairs,
@@ -141,6 +142,15 @@ def _classify_state(  # type: ignore[no-untyped-def]
     for k in range(n_world):
         b = world_pairs[k, 0]
         o = world_pairs[k, 1]
+        # broadphase: the body's bounding sphere against the obstacle's
+        r0 = body_root[b]
+        _centre(r0, b, TB, nodes, W, stamp, cur)
+        dx = W[r0, 0] - obs_sphere[o, 0]
+        dy = W[r0, 1] - obs_sphere[o, 1]
+        dz = W[r0, 2] - obs_sphere[o, 2]
+        rr = nodes[r0, 3] + obs_sphere[o, 3]
+        if dx * dx + dy * dy + dz * dz > rr * rr:
+            continue
         if not _tree_touches_obstacle(
             b,
             body_root[b],
@@ -234,6 +244,7 @@ def _classify_range(  # type: ignore[no-untyped-def]
     obs_kind,
     obs_T,
     obs_dims,
+    obs_sphere,
     obs_inner_ok,
     world_pairs,
     self_pairs,
@@ -281,6 +292,7 @@ def _classify_range(  # type: ignore[no-untyped-def]
             obs_kind,
             obs_T,
             obs_dims,
+            obs_sphere,
             obs_inner_ok,
             world_pairs,
             self_pairs,
@@ -321,6 +333,7 @@ def classify(  # type: ignore[no-untyped-def]
     obs_kind,
     obs_T,
     obs_dims,
+    obs_sphere,
     obs_inner_ok,
     world_pairs,
     self_pairs,
@@ -373,6 +386,7 @@ def classify(  # type: ignore[no-untyped-def]
             obs_kind,
             obs_T,
             obs_dims,
+            obs_sphere,
             obs_inner_ok,
             world_pairs,
             self_pairs,
@@ -417,6 +431,7 @@ def classify(  # type: ignore[no-untyped-def]
             obs_kind,
             obs_T,
             obs_dims,
+            obs_sphere,
             obs_inner_ok,
             world_pairs,
             self_pairs,

@@ -81,6 +81,18 @@ def obstacle_of(object_id: str, shape: Shape, T: NDArray[np.float64]) -> Obstacl
     return Obstacle(object_id, K.OBS_BOX, Tb, np.maximum(0.5 * (hi - lo), 1e-9), False)
 
 
+def _bounding_sphere(o: Obstacle) -> NDArray[np.float64]:
+    """Centre (scene frame) and radius of a sphere around an obstacle primitive."""
+    d = o.dims
+    if o.kind == K.OBS_BOX:
+        r = float(np.linalg.norm(d))
+    elif o.kind == K.OBS_CYLINDER:
+        r = float(np.hypot(d[0], d[1]))
+    else:
+        r = float(d[0])
+    return np.array([*o.T_scene_shape[:3, 3], r * (1 + 1e-9) + 1e-12])
+
+
 def coal_geometry(shape: Shape) -> object:
     """The coal collision geometry of a shape."""
     import coal
@@ -233,6 +245,7 @@ class CollisionChecker:
         self._obs_kind = np.array([o.kind for o in obs], dtype=np.int64)
         self._obs_T = np.array([o.T_scene_shape for o in obs]).reshape(-1, 4, 4)
         self._obs_dims = np.array([o.dims for o in obs]).reshape(-1, 3)
+        self._obs_sphere = np.array([_bounding_sphere(o) for o in obs]).reshape(-1, 4)
         self._obs_inner_ok = np.array([o.exact_inner for o in obs], dtype=np.bool_)
 
         self._world_pairs = np.array(self.world_pairs, dtype=np.int64).reshape(-1, 2)
@@ -347,6 +360,7 @@ class CollisionChecker:
             self._obs_kind,
             self._obs_T,
             self._obs_dims,
+            self._obs_sphere,
             self._obs_inner_ok,
             self._world_pairs,
             self._self_pairs,
