@@ -266,6 +266,31 @@ class CollisionChecker:
             np.empty((slots, args.n_links, 4, 4)),
         )
         self._epoch = 0
+        # everything the kernel takes besides the states, in its order, built once: a call
+        # then costs one tuple unpacking instead of forty attribute lookups
+        self._kernel_args = (
+            self._group_idx,
+            self.base_positions,
+            self._joints,
+            args.root,
+            *args.arrays,
+            self._body_link,
+            self._body_T,
+            self._body_root,
+            self._nodes,
+            self._left,
+            self._right,
+            self._inner_start,
+            self._inner,
+            self._obs_kind,
+            self._obs_T,
+            self._obs_dims,
+            self._obs_sphere,
+            self._obs_inner_ok,
+            self._world_pairs,
+            self._self_pairs,
+            *self._scratch,
+        )
 
     # ------------------------------------------------------------------ exact level
     def _exact_model(self):  # type: ignore[no-untyped-def]
@@ -338,36 +363,16 @@ class CollisionChecker:
         """The sphere level alone: (N,) int8 (0 free, 1 colliding, 2 unsure) and (N, P) flags
         of the unsure pairs (world pairs, then self pairs). ``pair_flags=False`` skips the
         flags (an empty array): ``check`` does not need them."""
-        q = self.group.as_joint_batch(qs)
-        a = self._args
+        return self._classify(self.group.as_joint_batch(qs), pair_flags)
+
+    def _classify(
+        self, q: NDArray[np.float64], pair_flags: bool
+    ) -> tuple[NDArray[np.int8], NDArray[np.bool_]]:
+        """classify on an already validated (N, dof) C-contiguous array."""
         epoch = self._epoch
         self._epoch += q.shape[0]
         return K.classify(  # type: ignore[no-any-return]
-            q,
-            self._group_idx,
-            self.base_positions,
-            self._joints,
-            a.root,
-            *a.arrays,
-            self._body_link,
-            self._body_T,
-            self._body_root,
-            self._nodes,
-            self._left,
-            self._right,
-            self._inner_start,
-            self._inner,
-            self._obs_kind,
-            self._obs_T,
-            self._obs_dims,
-            self._obs_sphere,
-            self._obs_inner_ok,
-            self._world_pairs,
-            self._self_pairs,
-            *self._scratch,
-            epoch,
-            pair_flags,
-            64,
+            q, *self._kernel_args, epoch, pair_flags, 64
         )
 
     def check(self, qs: ArrayLike) -> NDArray[np.bool_]:
@@ -375,7 +380,7 @@ class CollisionChecker:
         q = self.group.as_joint_batch(qs)
         if self.static_collisions:
             return np.ones(q.shape[0], dtype=bool)
-        cls, _ = self.classify(q, pair_flags=False)
+        cls, _ = self._classify(q, False)
         out = cls == K.HIT
         unsure = np.flatnonzero(cls == K.UNSURE)
         if len(unsure):
