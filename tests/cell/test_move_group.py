@@ -114,3 +114,49 @@ def test_errors(arm):
         arm.plan()
     with pytest.raises(ExecutionError, match="JointTrajectory"):
         arm.execute("plan")
+
+
+def test_linear_sequence_with_blend_radius(arm):
+    """A LIN sequence: stopping at the corners, or rounding them within the blend radius,
+    which is faster; away from the corners the tool is on the straight lines."""
+    from robocell.kinematics import fk
+
+    arm.set_end_effector_link("tool0")
+    arm.set_joint_value_target([0, 0.3, 0.2, 0, 0.9, 0])
+    assert arm.go()
+    start = arm.get_current_joint_values()
+    T0 = arm.get_current_pose()
+    p0 = T0.position
+    corners = [p0 + [0, 0, 0.03], p0 + [0, 0.2, 0.03], p0 + [0, 0.2, 0.0]]
+    poses = [Pose(c, T0.orientation) for c in corners]
+    stop = arm.compute_sequence(poses, 0.0)
+    blend = arm.compute_sequence(poses, 0.02)
+    assert stop.fraction == 1.0 and blend.fraction == 1.0
+    assert blend.trajectory.duration < stop.trajectory.duration
+    for plan, radius in ((stop, 0.0), (blend, 0.02)):
+        traj = plan.trajectory
+        assert traj.limit_violations(arm.group) == []
+        assert np.allclose(traj.positions[0], start)
+        qs = traj.sample(np.linspace(0, traj.duration, 400)).positions
+        pts = np.array([fk(arm.group, q, "tool0")[:3, 3] for q in qs])
+        poly = np.array([p0, *corners])
+        d_line = np.min(
+            [
+                np.linalg.norm(
+                    pts
+                    - (
+                        a
+                        + np.clip(((pts - a) @ (b - a)) / ((b - a) @ (b - a)), 0, 1)[:, None]
+                        * (b - a)
+                    ),
+                    axis=1,
+                )
+                for a, b in zip(poly[:-1], poly[1:], strict=True)
+            ],
+            axis=0,
+        )
+        near_corner = np.min(np.linalg.norm(pts[:, None, :] - poly[None, 1:-1, :], axis=2), axis=1)
+        away = near_corner > radius + 1e-3
+        assert d_line[away].max() < 5e-4
+        assert d_line.max() < max(radius, 1e-3)
+        assert np.allclose(pts[-1], corners[-1], atol=1e-4)

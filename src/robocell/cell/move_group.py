@@ -21,7 +21,11 @@ from numpy.typing import ArrayLike, NDArray
 from robocell.errors import ExecutionError, PlanningError, choices
 from robocell.execution.controller import Controller, ExecutionHandle, KinematicController
 from robocell.geometry.pose import Pose
-from robocell.planning.cartesian import compute_cartesian_path, relative_pose
+from robocell.planning.cartesian import (
+    compute_cartesian_path,
+    compute_linear_sequence,
+    relative_pose,
+)
 from robocell.planning.planner import Planner, PlannerConfig
 from robocell.planning.request import (
     Goal,
@@ -34,7 +38,7 @@ from robocell.planning.request import (
 from robocell.scene.objects import AttachedObject, CollisionObject
 from robocell.scene.planning_scene import PlanningScene
 from robocell.trajectory.timing import time_optimal
-from robocell.trajectory.trajectory import JointTrajectory
+from robocell.trajectory.trajectory import JointTrajectory, stationary
 
 
 @dataclass
@@ -292,6 +296,37 @@ class MoveGroup:
             smooth=True,
         )
         return CartesianPlan(traj, cp.fraction, cp.reason)
+
+    def compute_sequence(
+        self, waypoints: list[Pose], blend_radius: float = 0.0, eef_step: float = 0.005
+    ) -> CartesianPlan:
+        """Straight moves of the end-effector link through ``waypoints`` (world frame), each
+        corner rounded from ``blend_radius`` [m] before it (Pilz's LIN sequence with blend
+        radii, ABB's zones); 0 stops at every corner. Timed time-optimally."""
+        start = self._start if self._start is not None else self.get_current_joint_values()
+        with self._lock:
+            seq = compute_linear_sequence(
+                self.scene,
+                self.group,
+                list(waypoints),
+                blend_radius,
+                eef_step,
+                True,
+                self.end_effector_link,
+                start,
+            )
+        traj = stationary(self.group, start)
+        for piece in seq.pieces:
+            traj = traj.then(
+                time_optimal(
+                    self.group,
+                    piece,
+                    self.velocity_scaling,
+                    self.acceleration_scaling,
+                    smooth=True,
+                )
+            )
+        return CartesianPlan(traj, seq.fraction, seq.reason)
 
     def move_relative(
         self,

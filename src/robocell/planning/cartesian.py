@@ -272,3 +272,101 @@ def relative_pose(
         out[:3, 3] = T[:3, 3] + R_frame @ D[:3, 3]
         return Pose.from_matrix(out)
     raise PlanningError(f"unknown frame {frame!r}; known: base, tool, world")
+
+
+@dataclass
+class LinearSequence:
+    """Joint paths of a sequence of straight moves, one per stretch between the points where
+    the motion must stop (sharp corners, reversals); ``fraction`` of the whole Cartesian
+    length reached and ``reason`` as for :class:`CartesianPath`."""
+
+    pieces: list[NDArray[np.float64]]
+    fraction: float
+    reason: str = ""
+
+
+def compute_linear_sequence(
+    scene: PlanningScene,
+    group: str | JointGroup,
+    waypoints: list[Pose],
+    blend_radius: float = 0.0,
+    eef_step: float = 0.005,
+    avoid_collisions: bool = True,
+    link: str | None = None,
+    start: ArrayLike | None = None,
+) -> LinearSequence:
+    """Straight moves of ``link`` through ``waypoints`` (world frame), as a Pilz LIN sequence:
+    each corner is rounded by an arc that starts ``blend_radius`` [m] before it (at most half
+    of each neighbouring move), so the motion flows through; ``blend_radius=0`` stops at every
+    corner. A reversal always stops. Orientation is interpolated along each move."""
+    g = scene.robot.group(group) if isinstance(group, str) else group
+    tip = link or g.tip_link
+    if not (blend_radius >= 0 and math.isfinite(blend_radius)):
+        raise PlanningError(f"blend_radius must be >= 0 [m], got {blend_radius}")
+    if not waypoints:
+        raise PlanningError("a linear sequence needs at least one waypoint")
+    q = (
+        scene.state.group_positions(g).copy()
+        if start is None
+        else g.as_joint_vector(start, "sequence start")
+    )
+    full = scene.state.positions.copy()
+    full[g.indices] = q
+    T0 = scene.T_world_root @ _link_in_root(scene, tip, full)
+    poses = [T0] + [(w if isinstance(w, Pose) else Pose.from_any(w)).matrix() for w in waypoints]
+    P = np.array([T[:3, 3] for T in poses])
+    # where the motion must stop: every corner without blending, and reversals
+    stops = [0]
+    for i in range(1, len(P) - 1):
+        u1, u2 = P[i] - P[i - 1], P[i + 1] - P[i]
+        n1, n2 = np.linalg.norm(u1), np.linalg.norm(u2)
+        reversal = n1 > 1e-9 and n2 > 1e-9 and float(u1 @ u2) / (n1 * n2) < -1.0 + 1e-6
+        if blend_radius == 0 or reversal:
+            stops.append(i)
+    stops.append(len(P) - 1)
+    total = float(np.linalg.norm(np.diff(P, axis=0), axis=1).sum())
+    pieces: list[NDArray[np.float64]] = []
+    done = 0.0
+    for a, b in zip(stops[:-1], stops[1:], strict=True):
+        dense = _rounded_poses(poses[a : b + 1], blend_radius, eef_step)
+        cp = compute_cartesian_path(scene, g, dense, eef_step, 0.0, avoid_collisions, tip, 0.05, q)
+        piece_len = float(np.linalg.norm(np.diff(P[a : b + 1], axis=0), axis=1).sum())
+        if cp.fraction < 1.0:
+            if len(cp.path) > 1:
+                pieces.append(cp.path)
+            reached = done + cp.fraction * piece_len
+            return LinearSequence(pieces, reached / total if total > 0 else 0.0, cp.reason)
+        pieces.append(cp.path)
+        q = cp.path[-1]
+        done += piece_len
+    return LinearSequence(pieces, 1.0, "")
+
+
+def _rounded_poses(
+    poses: list[NDArray[np.float64]], blend_radius: float, step: float
+) -> list[Pose]:
+    """Dense poses (the first excluded) along the corners' polyline with each interior corner
+    rounded; orientation slerped along each move by the distance covered."""
+    from robocell.trajectory.path import BlendedPath
+
+    P = np.array([T[:3, 3] for T in poses])
+    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    if seg.sum() < 1e-12:  # a pure rotation
+        return [Pose.from_matrix(poses[-1])]
+    bp = BlendedPath(P, blend_length=blend_radius if blend_radius > 0 else 0.0)
+    n = max(1, int(math.ceil(bp.length / step)))
+    s = np.linspace(0.0, bp.length, n + 1)[1:]
+    pts = bp(s)
+    # orientation by the fraction of the straight polyline covered (arc ≈ polyline)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    frac = s / bp.length * cum[-1]
+    rots = Rotation.from_matrix(np.array([T[:3, :3] for T in poses]))
+    out = []
+    for x, f in zip(pts, frac, strict=True):
+        k = int(min(np.searchsorted(cum, f, side="right") - 1, len(seg) - 1))
+        t = (f - cum[k]) / seg[k] if seg[k] > 1e-12 else 1.0
+        R = Slerp([0.0, 1.0], rots[[k, k + 1]])(min(max(t, 0.0), 1.0)).as_matrix()
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R, x
+        out.append(Pose.from_matrix(T))
+    return out

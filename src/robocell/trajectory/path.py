@@ -21,9 +21,16 @@ class BlendedPath(AbstractGeometricPath):  # type: ignore[misc]
     """Straight segments between ``waypoints`` (K, dof), each interior corner replaced by a
     circular arc that stays within ``max_deviation`` [rad] of the corner and uses at most half
     of each neighbouring segment. ``max_deviation=0`` keeps the sharp corners (the motion
-    then stops at each)."""
+    then stops at each). ``blend_length`` instead sets how far from each corner the arc starts
+    (a blend radius, as Pilz's), again at most half of each neighbouring segment. Works in any
+    dimension (joint space, or positions in task space)."""
 
-    def __init__(self, waypoints: ArrayLike, max_deviation: float = 0.05) -> None:
+    def __init__(
+        self,
+        waypoints: ArrayLike,
+        max_deviation: float = 0.05,
+        blend_length: float | None = None,
+    ) -> None:
         wp = np.asarray(waypoints, dtype=float)
         if wp.ndim != 2 or wp.shape[0] < 2:
             raise PlanningError(f"a path needs (K >= 2, dof) waypoints, got shape {wp.shape}")
@@ -49,16 +56,26 @@ class BlendedPath(AbstractGeometricPath):  # type: ignore[misc]
             u1, u2 = u[i - 1], u[i]
             cos_a = float(np.clip(u1 @ u2, -1.0, 1.0))
             alpha = math.acos(cos_a)  # turning angle
-            if alpha < 1e-9 or max_deviation <= 0 or seg_len[i - 1] < 1e-12 or seg_len[i] < 1e-12:
+            no_rounding = max_deviation <= 0 if blend_length is None else blend_length <= 0
+            if alpha < 1e-9 or no_rounding or seg_len[i - 1] < 1e-12 or seg_len[i] < 1e-12:
                 continue
             if alpha > math.pi - 1e-6:
                 continue  # a reversal cannot be rounded; the motion stops there
             half = 0.5 * alpha
             # deviation of the arc's midpoint from the corner: r (1/cos(half) - 1)
             # 1 − cos(half) written as 2 sin²(half/2): exact for tiny turns too
-            r = max_deviation * math.cos(half) / (2.0 * math.sin(0.5 * half) ** 2)
-            ell = r * math.tan(half)
-            ell = min(ell, 0.5 * seg_len[i - 1], 0.5 * seg_len[i])
+            if blend_length is None:
+                r = max_deviation * math.cos(half) / (2.0 * math.sin(0.5 * half) ** 2)
+                ell = r * math.tan(half)
+                ell = min(ell, 0.5 * seg_len[i - 1], 0.5 * seg_len[i])
+            else:
+                # a blend may use a whole first or last segment (no other blend shares it),
+                # half of any other one (Pilz: blend spheres must not overlap)
+                def avail(k: int) -> float:
+                    end = k == 0 or k == n - 2
+                    return float(seg_len[k] * (1.0 - 1e-6) if end else 0.5 * seg_len[k])
+
+                ell = min(blend_length, avail(i - 1), avail(i))
             r = ell / math.tan(half)
             if ell < 1e-9:
                 continue
