@@ -3,6 +3,12 @@
 The public API, by layer (ARCHITECTURE.md): geometry → robot → kinematics → scene.
 """
 
+import os as _os
+
+# MuJoCo picks its OpenGL backend when first imported: offscreen EGL unless the user chose
+_os.environ.setdefault("MUJOCO_GL", "egl")
+
+
 from robocell.errors import (
     ExecutionError,
     GeometryError,

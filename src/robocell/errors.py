@@ -38,6 +38,14 @@ class ExecutionError(RobocellError):
     """A trajectory cannot be executed."""
 
 
+class CellError(RobocellError):
+    """A cell file is malformed (unknown key, missing field, bad value, unknown robot or mesh)."""
+
+
+class SimulationError(RobocellError):
+    """The physics world diverged or was asked something it cannot do."""
+
+
 class GraspError(RobocellError):
     """A grasp or place request is malformed."""
 

@@ -12,7 +12,7 @@ execution through a controller, Cartesian paths, attached objects.
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -89,6 +89,8 @@ class MoveGroup:
         self.end_effector_link = self.group.tip_link
         self._handle: ExecutionHandle | None = None
         self.seed: int | None = 0
+        #: copies the executing robot's state into the scene (physics mode) before it is read
+        self.sync_state: Callable[[], None] | None = None
 
     # ------------------------------------------------------------------ state
     def get_name(self) -> str:
@@ -103,6 +105,8 @@ class MoveGroup:
 
     def get_current_pose(self, link: str | None = None) -> Pose:
         """Pose of ``link`` (default: the end-effector link) in the world frame, now."""
+        if self.sync_state is not None:
+            self.sync_state()
         with self._lock:
             return self.scene.link_pose(link or self.end_effector_link)
 
@@ -216,6 +220,8 @@ class MoveGroup:
                 "no target: call set_named_target, set_joint_value_target, set_pose_target "
                 "or set_position_target first"
             )
+        if self.sync_state is not None:
+            self.sync_state()
         request = MotionPlanRequest(
             group=self.group.name,
             goal=self._goal,
@@ -273,6 +279,8 @@ class MoveGroup:
     ) -> CartesianPlan:
         """Straight lines of the end-effector link through ``waypoints`` (world frame), from
         the start state; unpacks as ``trajectory, fraction``."""
+        if self.sync_state is not None:
+            self.sync_state()
         start = self._start if self._start is not None else self.get_current_joint_values()
         with self._lock:
             cp = compute_cartesian_path(
@@ -303,6 +311,8 @@ class MoveGroup:
         """Straight moves of the end-effector link through ``waypoints`` (world frame), each
         corner rounded from ``blend_radius`` [m] before it (Pilz's LIN sequence with blend
         radii, ABB's zones); 0 stops at every corner. Timed time-optimally."""
+        if self.sync_state is not None:
+            self.sync_state()
         start = self._start if self._start is not None else self.get_current_joint_values()
         with self._lock:
             seq = compute_linear_sequence(

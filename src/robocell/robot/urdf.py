@@ -18,6 +18,7 @@ from robocell.errors import ModelError, unknown
 from robocell.geometry.pose import make_transform, rpy_to_matrix
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
+_INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 
 
 @dataclass
@@ -48,6 +49,16 @@ class UrdfMesh:
 
 
 @dataclass
+class Inertial:
+    """A link's mass [kg], centre of mass frame ``origin`` (4×4, in the link frame) and inertia
+    tensor (3×3) [kg m²] about the centre of mass, in that frame."""
+
+    mass: float
+    origin: np.ndarray
+    inertia: np.ndarray
+
+
+@dataclass
 class UrdfRobot:
     name: str
     links: list[str]
@@ -55,6 +66,8 @@ class UrdfRobot:
     root: str
     meshes: list[UrdfMesh] = field(default_factory=list)
     source: str = ""
+    inertials: dict[str, Inertial] = field(default_factory=dict)
+    colors: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
 
     def joint(self, name: str) -> JointInfo:
         for j in self.joints:
@@ -94,6 +107,14 @@ def parse_urdf(text: str, source: str = "<string>") -> UrdfRobot:
     name = root.get("name", "robot")
     links: list[str] = []
     meshes: list[UrdfMesh] = []
+    inertials: dict[str, Inertial] = {}
+    colors: dict[str, tuple[float, float, float, float]] = {}
+    # materials defined at the top level, referred to by name in links
+    named_colors = {
+        m.get("name", ""): m.find("color").get("rgba", "")  # type: ignore[union-attr]
+        for m in root.findall("material")
+        if m.find("color") is not None
+    }
     for link in root.findall("link"):
         lname = link.get("name")
         if not lname:
@@ -101,6 +122,33 @@ def parse_urdf(text: str, source: str = "<string>") -> UrdfRobot:
         if lname in links:
             raise ModelError(f"{source}: duplicate link {lname!r}")
         links.append(lname)
+        inertial = link.find("inertial")
+        if inertial is not None:
+            mass_el = inertial.find("mass")
+            mass = float(mass_el.get("value", 0.0)) if mass_el is not None else 0.0
+            if not mass >= 0:
+                raise ModelError(f"{source}: link {lname!r} has a negative mass {mass}")
+            ie = inertial.find("inertia")
+            vals = {k: float(ie.get(k, 0.0)) if ie is not None else 0.0 for k in _INERTIA_KEYS}
+            tensor = np.array(
+                [
+                    [vals["ixx"], vals["ixy"], vals["ixz"]],
+                    [vals["ixy"], vals["iyy"], vals["iyz"]],
+                    [vals["ixz"], vals["iyz"], vals["izz"]],
+                ]
+            )
+            inertials[lname] = Inertial(
+                mass, _origin(inertial.find("origin"), f"link {lname!r} inertial"), tensor
+            )
+        mat = link.find("visual/material")
+        if mat is not None:
+            col = mat.find("color")
+            rgba: str | None = (
+                col.get("rgba") if col is not None else named_colors.get(mat.get("name", ""))
+            )
+            if rgba:
+                c = _floats(rgba, 4, f"link {lname!r} colour", (0.7, 0.7, 0.7, 1.0))
+                colors[lname] = (float(c[0]), float(c[1]), float(c[2]), float(c[3]))
         for kind in ("collision", "visual"):
             for el in link.findall(kind):
                 mesh = el.find("geometry/mesh")
@@ -180,7 +228,16 @@ def parse_urdf(text: str, source: str = "<string>") -> UrdfRobot:
     roots = [lk for lk in links if lk not in children]
     if len(roots) != 1:
         raise ModelError(f"{source}: the robot must have exactly one root link, found {roots}")
-    robot = UrdfRobot(name, links, _topological(joints, roots[0], source), roots[0], meshes, source)
+    robot = UrdfRobot(
+        name,
+        links,
+        _topological(joints, roots[0], source),
+        roots[0],
+        meshes,
+        source,
+        inertials,
+        colors,
+    )
     return robot
 
 

@@ -1,0 +1,210 @@
+"""A cell: one robot, fixtures, objects, targets and cameras from one cell file, building both
+the planning scene (what the planner believes) and the physics world (what is).
+
+They are separate on purpose, as MoveIt's scene is from Gazebo's world: :meth:`Cell.sync_scene`
+copies the world's ground truth into the scene; the world never reads the scene.
+
+    cell = Cell.load("sorting")                 # physics (MuJoCo); mode="kinematic": demo mode
+    arm = cell.move_group("arm")
+    arm.set_named_target("home"); arm.go()
+    cell.world.object_pose("blue_ball")
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robocell.cell.cell_file import CellSpec, cell_path, load_cell_file
+from robocell.cell.move_group import MoveGroup
+from robocell.errors import CellError, choices
+from robocell.execution.controller import Controller, KinematicController
+from robocell.geometry.pose import Pose
+from robocell.robot.model import RobotModel
+from robocell.scene.objects import CollisionObject
+from robocell.scene.planning_scene import PlanningScene
+
+MODES = ("physics", "kinematic")
+
+
+class Cell:
+    """A work cell. ``mode``: "physics" (a MuJoCo world plays the robot) or "kinematic" (demo
+    mode: the scene's robot follows trajectories exactly; objects do not move by themselves).
+    ``realtime`` paces the physics to the wall clock (for viewing); ``time_scale`` sets the
+    kinematic controller's pace (0: at once)."""
+
+    def __init__(
+        self,
+        spec: CellSpec,
+        layout: int = 0,
+        mode: str = "physics",
+        realtime: bool = False,
+        time_scale: float = 1.0,
+    ) -> None:
+        if mode not in MODES:
+            raise CellError(f"unknown mode {mode!r}; known: {', '.join(MODES)}")
+        self.spec = spec
+        self.mode = mode
+        rs = spec.robots[0]
+        self.robot_spec = rs
+        try:
+            if rs.model is not None:
+                self.robot = RobotModel.load(rs.model)
+            else:
+                assert rs.urdf is not None
+                self.robot = RobotModel.from_urdf(rs.urdf, rs.srdf)
+        except Exception as exc:
+            raise CellError(f"{spec.source}: robot {rs.name!r}: {exc}") from exc
+        for g in [rs.arm] + ([rs.gripper] if rs.gripper else []):
+            if g not in self.robot.group_names:
+                raise CellError(
+                    f"{spec.source}: robot {rs.name!r}: unknown group {g!r}; "
+                    f"known: {choices(self.robot.group_names)}"
+                )
+        self.layout = layout
+        self._initial = spec.layout(layout)
+        self.scene = PlanningScene(self.robot, rs.pose, spec.name)
+        for f in spec.fixtures:
+            self.scene.add_object(
+                CollisionObject(
+                    f.name, tuple(p.shape for p in f.parts), tuple(p.pose for p in f.parts), f.pose
+                )
+            )
+        for o in spec.objects:
+            self.scene.add_object(
+                CollisionObject(o.name, (o.shape,), (Pose(),), self._initial[o.name])
+            )
+        # what the robot stands on at its default state (its pedestal) may touch it
+        for link, other in self.scene.colliding_pairs(self.robot.default_positions):
+            fixture = other if other in [f.name for f in spec.fixtures] else link
+            robot_link = link if fixture == other else other
+            self.scene.allow_collision(robot_link, fixture)
+        self.world = None
+        self._stepper = None
+        if mode == "physics":
+            from robocell.execution.physics import Stepper
+            from robocell.sim.world import Camera, FixtureGeom, FreeObject, World
+
+            fixtures = [
+                FixtureGeom(f.name, p.shape, f.pose * p.pose, f.color, f.friction)
+                for f in spec.fixtures
+                for p in f.parts
+            ]
+            objects = [
+                FreeObject(o.name, o.shape, self._initial[o.name], o.mass, o.friction, o.color)
+                for o in spec.objects
+            ]
+            cams = [Camera(c.name, c.position, c.look_at, c.fovy, c.width, c.height)
+                    for c in spec.cameras]  # fmt: skip
+            self.world = World(self.robot, rs.pose, fixtures, objects, cams)
+            self._stepper = Stepper(self.world, realtime)
+        self.time_scale = time_scale
+        self._controllers: dict[str, Controller] = {}
+        self._groups: dict[str, MoveGroup] = {}
+
+    @classmethod
+    def load(
+        cls,
+        name_or_path: str | Path,
+        layout: int = 0,
+        mode: str = "physics",
+        realtime: bool = False,
+        time_scale: float = 1.0,
+    ) -> Cell:
+        """A bundled cell by name (``"sorting"``) or a cell file by path."""
+        return cls(load_cell_file(cell_path(name_or_path)), layout, mode, realtime, time_scale)
+
+    # ------------------------------------------------------------------ names
+    @property
+    def object_names(self) -> list[str]:
+        return [o.name for o in self.spec.objects]
+
+    @property
+    def target_names(self) -> list[str]:
+        return [t.name for t in self.spec.targets]
+
+    def target_position(self, name: str, frame: str = "robot") -> NDArray[np.float64]:
+        """A target's position [m] in the robot base frame (``frame="robot"``) or the world."""
+        for t in self.spec.targets:
+            if t.name == name:
+                p = np.array(t.position, dtype=float)
+                T_w_r = self.robot_spec.pose.matrix()
+                if t.frame == frame:
+                    return p
+                if t.frame == "robot":  # to world
+                    return (T_w_r @ np.append(p, 1.0))[:3]
+                return (np.linalg.inv(T_w_r) @ np.append(p, 1.0))[:3]
+        raise CellError(f"unknown target {name!r}; known: {choices(self.target_names)}")
+
+    # ------------------------------------------------------------------ state
+    def object_pose(self, name: str) -> Pose:
+        """An object's pose in the world frame: the world's ground truth in physics mode, the
+        scene's in kinematic mode (held objects follow the gripper)."""
+        if name not in self.object_names:
+            raise CellError(f"unknown object {name!r}; known: {choices(self.object_names)}")
+        if self.world is not None:
+            return self.world.object_pose(name)
+        if name in self.scene.attached_objects:
+            held = self.scene.attached_objects[name]
+            return self.scene.link_pose(held.link) * held.object.pose
+        return self.scene.get_object(name).pose
+
+    def sync_robot_state(self) -> None:
+        """The scene's robot state from the world (physics mode)."""
+        if self.world is not None:
+            self.scene.state.positions[:] = self.world.robot_positions()
+
+    def sync_scene(self) -> None:
+        """The scene's robot state and free objects' poses from the world's ground truth
+        (held objects stay attached)."""
+        if self.world is None:
+            return
+        self.sync_robot_state()
+        for name in self.object_names:
+            if name in self.scene.world_objects:
+                self.scene.move_object(name, self.world.object_pose(name))
+
+    def reset(self, layout: int | None = None) -> None:
+        """Back to the initial layout (or layout ``layout``): robot home, objects placed,
+        nothing held; the scene follows."""
+        for c in self._controllers.values():
+            c.stop()
+        if layout is not None:
+            self._initial = self.spec.layout(layout)
+            self.layout = layout
+        for name in list(self.scene.attached_objects):
+            self.scene.detach_object(name)
+        self.scene.state.positions[:] = self.robot.default_positions
+        for name, pose in self._initial.items():
+            self.scene.move_object(name, pose)
+        if self.world is not None:
+            self.world.reset(self._initial)
+
+    # ------------------------------------------------------------------ motion
+    def controller(self, group: str) -> Controller:
+        """The controller of a group: physics or kinematic, by the cell's mode."""
+        if group not in self._controllers:
+            g = self.robot.group(group)
+            if self._stepper is not None:
+                from robocell.execution.physics import PhysicsController
+
+                gripper = group == self.robot_spec.gripper
+                self._controllers[group] = PhysicsController(
+                    self._stepper, g, math.inf if gripper else 0.01
+                )
+            else:
+                self._controllers[group] = KinematicController(
+                    g, self.scene.state.positions, time_scale=self.time_scale
+                )
+        return self._controllers[group]
+
+    def move_group(self, group: str) -> MoveGroup:
+        """MoveIt's commander for ``group`` of the cell's robot (one per group)."""
+        if group not in self._groups:
+            mg = MoveGroup(self.scene, group, controller=self.controller(group))
+            mg.sync_state = self.sync_robot_state
+            self._groups[group] = mg
+        return self._groups[group]

@@ -1,0 +1,200 @@
+"""Controllers that run trajectories on the physics world.
+
+One :class:`Stepper` per world steps the physics while any goal is active (as fast as it can,
+or paced to real time) and, every step, sets each active goal's servo references (position and
+velocity) and feed-forward torque M(q)·q̈_ref from the trajectory sampled at the physics rate.
+Goals for different groups run at the same time; a new goal for a group preempts its old one.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from robocell.errors import SimulationError
+from robocell.execution.controller import (
+    ExecutionHandle,
+    ExecutionResult,
+    ExecutionStatus,
+    stopping_trajectory,
+    validate_trajectory,
+)
+from robocell.robot.model import JointGroup
+from robocell.sim.world import World
+from robocell.trajectory.trajectory import JointTrajectory
+
+
+@dataclass
+class _Goal:
+    group: JointGroup
+    handle: ExecutionHandle
+    q: NDArray[np.float64]  # (K, dof) references per physics step
+    qd: NDArray[np.float64]
+    qdd: NDArray[np.float64]
+    act: NDArray[np.int64]
+    dof: NDArray[np.int64]
+    col: NDArray[np.int64]  # the group joint each servo follows
+    scale: NDArray[np.float64]
+    offset: NDArray[np.float64]
+    qpos_adr: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    k: int = 0
+    max_error: float = 0.0
+    stopping: bool = False
+    final: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+
+
+class Stepper:
+    """Steps one world for its controllers (a background thread while goals are active)."""
+
+    def __init__(self, world: World, realtime: bool = False) -> None:
+        self.world = world
+        self.realtime = realtime
+        self._goals: dict[str, _Goal] = {}
+        self._cv = threading.Condition()
+        self._thread: threading.Thread | None = None
+        m = world.model
+        self._kp = m.actuator_gainprm[:, 0].copy()
+        self._kv = -m.actuator_biasprm[:, 2].copy()
+        self._qdd_full = np.zeros(m.nv)
+        self._tau = np.zeros(m.nv)
+        self.error: str = ""
+
+    def submit(self, goal: _Goal) -> None:
+        with self._cv:
+            old = self._goals.get(goal.group.name)
+            if old is not None:
+                old.handle._finish(
+                    ExecutionResult(
+                        ExecutionStatus.PREEMPTED, "preempted by a new goal", old.max_error
+                    )
+                )
+            self._goals[goal.group.name] = goal
+            if self._thread is None or not self._thread.is_alive():
+                self._thread = threading.Thread(target=self._run, daemon=True)
+                self._thread.start()
+            self._cv.notify_all()
+
+    def stop(self, group: str) -> None:
+        """Replace the group's remaining references by a stop within its limits."""
+        with self._cv:
+            g = self._goals.get(group)
+            if g is None or g.stopping:
+                return
+            k = min(g.k, len(g.q) - 1)
+            stop = stopping_trajectory(g.group, g.q[k], g.qd[k], self.world.timestep)
+            g.q, g.qd, g.qdd = _sampled(stop, self.world.timestep)
+            g.k = 0
+            g.stopping = True
+        g.handle.wait()
+
+    def _run(self) -> None:
+        world = self.world
+        m, d = world.model, world.data
+        dt = world.timestep
+        t_wall0 = time.perf_counter()
+        t_sim0 = world.time
+        while True:
+            with self._cv:
+                if not self._goals:
+                    return
+                goals = list(self._goals.values())
+            with world.lock:
+                self._qdd_full[:] = 0.0
+                for g in goals:
+                    # the reference at the start of the step (the implicit integrator moves
+                    # the joint with the velocity at its end: aiming at the end runs ahead)
+                    k0 = min(g.k, len(g.q) - 1)
+                    q, qd = g.q[k0][g.col], g.qd[k0][g.col]
+                    d.ctrl[g.act] = g.offset + g.scale * (
+                        q + qd * (self._kv[g.act] / self._kp[g.act])
+                    )
+                    self._qdd_full[g.dof] = g.scale * g.qdd[k0][g.col]
+                mujoco.mj_mulM(m, d, self._tau, self._qdd_full)
+                d.qfrc_applied[:] = 0.0
+                for g in goals:
+                    d.qfrc_applied[g.dof] = self._tau[g.dof]
+                try:
+                    world.step(1)
+                except SimulationError as exc:
+                    self.error = str(exc)
+                    with self._cv:
+                        for g in goals:
+                            g.handle._finish(
+                                ExecutionResult(ExecutionStatus.ABORTED, str(exc), g.max_error)
+                            )
+                        self._goals.clear()
+                    return
+                for g in goals:
+                    g.k += 1
+                    k = min(g.k, len(g.q) - 1)
+                    actual = (d.qpos[g.qpos_adr] - g.offset) / g.scale
+                    if not g.stopping:
+                        err = float(np.max(np.abs(actual - g.q[k][g.col])))
+                        g.max_error = max(g.max_error, err)
+            with self._cv:
+                for g in goals:
+                    if g.k >= len(g.q) and self._goals.get(g.group.name) is g:
+                        del self._goals[g.group.name]
+                        status = (
+                            ExecutionStatus.PREEMPTED if g.stopping else ExecutionStatus.SUCCEEDED
+                        )
+                        g.handle._finish(
+                            ExecutionResult(
+                                status, "stopped" if g.stopping else "", g.max_error,
+                                len(g.q) * dt,
+                            )
+                        )  # fmt: skip
+            if self.realtime:
+                ahead = (world.time - t_sim0) - (time.perf_counter() - t_wall0)
+                if ahead > 0.002:
+                    time.sleep(ahead)
+
+
+def _sampled(
+    traj: JointTrajectory, dt: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    n = int(np.ceil(traj.duration / dt)) + 1
+    s = traj.sample(np.minimum(np.arange(n) * dt, traj.duration))
+    return s.positions, s.velocities, s.accelerations
+
+
+class PhysicsController:
+    """Runs trajectories of ``group`` on the world through its stepper. ``start_tolerance``
+    [rad or m]: how far the trajectory's start may be from the current state (MoveIt's 0.01;
+    a gripper, whose fingers stall on what they hold, takes any start)."""
+
+    def __init__(self, stepper: Stepper, group: JointGroup, start_tolerance: float = 0.01) -> None:
+        self.stepper = stepper
+        self.world = stepper.world
+        self.group = group
+        self.start_tolerance = start_tolerance
+        self._targets = self.world.servo_targets(group)
+        self._handle: ExecutionHandle | None = None
+
+    def current_positions(self) -> NDArray[np.float64]:
+        return self.world.group_positions(self.group)
+
+    def execute(self, trajectory: JointTrajectory) -> ExecutionHandle:
+        """Start ``trajectory`` (checked first: joints, limits, start at the current state)."""
+        validate_trajectory(self.group, trajectory, self.current_positions(), self.start_tolerance)
+        q, qd, qdd = _sampled(trajectory, self.world.timestep)
+        act = np.array([t[0] for t in self._targets], np.int64)
+        dof = np.array([t[1] for t in self._targets], np.int64)
+        col = np.array([t[2] for t in self._targets], np.int64)
+        scale = np.array([t[3] for t in self._targets])
+        offset = np.array([t[4] for t in self._targets])
+        handle = ExecutionHandle(self, trajectory)
+        self._handle = handle
+        adr = np.array([self.world._jnt_qpos_by_dof[int(x)] for x in dof], np.int64)
+        self.stepper.submit(
+            _Goal(self.group, handle, q, qd, qdd, act, dof, col, scale, offset, qpos_adr=adr)
+        )
+        return handle
+
+    def stop(self) -> None:
+        self.stepper.stop(self.group.name)
