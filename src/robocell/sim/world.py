@@ -530,13 +530,22 @@ class World:
         with self.lock:
             for _ in range(n):
                 mujoco.mj_step(self.model, self.data)
-            if not np.all(np.isfinite(self.data.qpos)) or np.abs(self.data.qvel).max() > 1e3:
-                t = self.time
-                self.reset()
-                raise SimulationError(
-                    f"the simulation diverged at t = {t:.3f} s (NaN or exploding velocities); "
-                    "the world was reset"
-                )
+            if not self.healthy():
+                raise SimulationError(self.diverged())
+
+    def healthy(self) -> bool:
+        """No NaN, no exploding velocity (> 1000 rad/s or m/s)."""
+        v = self.data.qvel
+        return bool(np.all(np.isfinite(self.data.qpos)) and np.all(np.abs(v) < 1e3))
+
+    def diverged(self) -> str:
+        """Reset the world after a divergence; the message saying so."""
+        t = self.time
+        self.reset()
+        return (
+            f"the simulation diverged at t = {t:.3f} s (NaN or exploding velocities); "
+            "the world was reset"
+        )
 
     # ------------------------------------------------------------------ cameras
     def render(
