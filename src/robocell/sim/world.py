@@ -163,6 +163,9 @@ class World:
         spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
         spec.option.impratio = 10.0
         spec.option.noslip_iterations = 0  # stiff contacts hold without it (measured), faster
+        # objects at rest sleep (and wake when touched): resting objects cost nothing, which
+        # doubles the real-time factor of the sorting cell (measured)
+        spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
         spec.compiler.autolimits = True
         spec.compiler.degree = False  # joint ranges in radians
         wb = spec.worldbody
@@ -498,7 +501,9 @@ class World:
             return float(np.linalg.norm(self.data.qvel[d : d + 3]))
 
     def contacts(self) -> list[tuple[str, str]]:
-        """Pairs of things touching now: object names, ``robot/<link>``, fixture names, floor."""
+        """Pairs of things touching now: object names, ``robot/<link>``, fixture names, floor.
+        An object asleep at rest (MuJoCo's sleeping islands) reports no contacts; anything
+        that touches it wakes it."""
         d = self.data
         out = []
         with self.lock:
