@@ -69,7 +69,7 @@ def main() -> None:
     print("|---|---|---|---|")
     for name in cell.object_names:
         slip, held = transfer_slip(cell, name)
-        print(f"| {name} | top, at (0.45, 0.0) | {slip:.2f} | {'yes' if held else 'NO'} |")
+        print(f"| {name} | from above, at (0.45, 0.0) | {slip:.2f} | {'yes' if held else 'NO'} |")
 
     # 4: memory over simulated time
     cell.reset()
@@ -99,15 +99,24 @@ def transfer_slip(cell: Cell, name: str) -> tuple[float, bool]:
     assert w is not None
     o = cell.spec.object(name)
     z = 1.0 + 0.5 * o.size[2]
+    # the others out of the way, along the far end of the conveyor
+    others = [n for n in cell.object_names if n != name]
+    for k, other in enumerate(others):
+        oz = 1.0 + 0.5 * cell.spec.object(other).size[2]
+        w.set_object_pose(other, Pose([0.45 + 0.15 * (k % 3), 0.7 + 0.15 * (k // 3), oz]))
     w.set_object_pose(name, Pose([0.45, 0.0, z]))
     w.step(50)
     cell.sync_scene()
     arm = cell.move_group("arm")
     arm.set_end_effector_link("tcp")
     grip = cell.move_group("gripper")
-    # tcp at the object's centre, but the 38 mm pads above the conveyor
-    z_tcp = max(z, 1.0 + 0.019 + 0.004)
-    arm.set_pose_target(Pose.from_rpy(0.45, 0.0, z_tcp + 0.12, 0, math.pi / 2, 0))
+    # tcp at the object's centre, but high enough that the gripper's body (45 mm above the
+    # tcp) clears a tall object's top, and the 38 mm pads clear the conveyor
+    top = 1.0 + o.size[2]
+    z_tcp = max(z, top - 0.035, 1.0 + 0.019 + 0.004)
+    # the fingers close along the world y axis at yaw 0: across the narrower side
+    yaw = math.pi / 2 if o.size[1] > o.size[0] + 1e-9 else 0.0
+    arm.set_pose_target(Pose.from_rpy(0.45, 0.0, z_tcp + 0.12, 0, math.pi / 2, yaw))
     if not arm.go():
         return float("nan"), False
     cell.scene.allow_collision(name, ["gripper_left_finger", "gripper_right_finger", "conveyor"])
