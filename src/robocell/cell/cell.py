@@ -183,6 +183,47 @@ class Cell:
         if self.world is not None:
             self.world.reset(self._initial)
 
+    def respawn(self, name: str) -> None:
+        """Put one object back where the layout has it, at rest (world and scene)."""
+        if name not in self.object_names:
+            raise CellError(f"unknown object {name!r}; known: {choices(self.object_names)}")
+        if name in self.scene.attached_objects:
+            self.scene.detach_object(name)
+        self.scene.move_object(name, self._initial[name])
+        if self.world is not None:
+            self.world.set_object_pose(name, self._initial[name])
+
+    # ------------------------------------------------------------------ grasps
+    def _gripper_links(self) -> list[str]:
+        g = self.robot_spec.gripper
+        return [] if g is None else [f"robot/{n}" for n in self.robot.group(g).link_names]
+
+    def is_grasped(self, name: str) -> bool:
+        """Whether the object is squeezed by the gripper: two or more of the gripper's links
+        touch it (physics), or it is attached to the robot (kinematic mode)."""
+        if name not in self.object_names:
+            raise CellError(f"unknown object {name!r}; known: {choices(self.object_names)}")
+        if self.world is None:
+            return name in self.scene.attached_objects
+        return len(self.world.touching(name) & set(self._gripper_links())) >= 2
+
+    def held_offset(self, name: str, link: str | None = None) -> Pose:
+        """The object's pose in the frame of ``link`` (default: the gripper's parent link, or
+        the arm's tip) now: compare two of them to see a held object slip."""
+        if link is None:
+            ees = [
+                e for e in self.robot.end_effectors.values() if e.group == self.robot_spec.gripper
+            ]
+            link = ees[0].parent_link if ees else self.robot.group(self.robot_spec.arm).tip_link
+        self.sync_robot_state()
+        return self.scene.link_pose(link).inverse() * self.object_pose(name)
+
+    def has_slipped(self, name: str, since: Pose, tolerance: float = 0.005) -> bool:
+        """Whether a held object moved more than ``tolerance`` [m] in the gripper since the
+        offset ``since`` (from :meth:`held_offset`)."""
+        now = self.held_offset(name)
+        return bool(np.linalg.norm(now.position - since.position) > tolerance)
+
     # ------------------------------------------------------------------ motion
     def controller(self, group: str) -> Controller:
         """The controller of a group: physics or kinematic, by the cell's mode."""

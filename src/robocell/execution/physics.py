@@ -68,6 +68,10 @@ class Stepper:
         self._tau = np.zeros(m.nv)
         self.error: str = ""
         self._version = 0  # bumped whenever the set of goals or a goal's references change
+        #: simulated over wall-clock time of the stepping so far (0 before any)
+        self.real_time_factor = 0.0
+        self._sim_total = 0.0
+        self._wall_total = 0.0
 
     def submit(self, goal: _Goal) -> None:
         with self._cv:
@@ -135,6 +139,7 @@ class Stepper:
                     self._prepare(g)
             dofs = np.concatenate([g.dof for g in goals])
             ended = False
+            t_chunk, steps_before = time.perf_counter(), step
             with world.lock:
                 # up to 20 steps per lock (40 ms simulated): readers wait at most that long
                 for _ in range(20):
@@ -170,6 +175,9 @@ class Stepper:
                         break
                 d.qfrc_applied[dofs] = 0.0
                 qdd_full[:] = 0.0
+            self._sim_total += (step - steps_before) * dt
+            self._wall_total += time.perf_counter() - t_chunk
+            self.real_time_factor = self._sim_total / max(self._wall_total, 1e-9)
             if not world.healthy():
                 self._abort(goals, world.diverged())
                 return
