@@ -5,7 +5,8 @@ def test_info_self_check_passes(capsys):
     assert main(["info"]) == 0
     out = capsys.readouterr().out
     assert "irb120_robotiq85" in out and "ur5e_gripper" in out
-    assert "self-check: PASS (2/2 robots)" in out
+    assert "self-check: PASS (2/2 robots, 1/1 cells)" in out
+    assert "sorting: ok: loaded" in out
 
 
 def test_no_command_prints_help(capsys):

@@ -88,9 +88,45 @@ def run_info() -> int:
         )
     cells = bundled_cells()
     print(f"\ncells: {', '.join(cells) if cells else 'none bundled in this version'}")
-    passed = all(r.passed for r in results)
+    cell_ok = []
+    for name in cells:
+        ok, line = check_cell(name)
+        cell_ok.append(ok)
+        print(f"  {name}: {'ok' if ok else 'FAIL'}: {line}")
+    passed = all(r.passed for r in results) and all(cell_ok)
     print(
         f"\nself-check: {'PASS' if passed else 'FAIL'} "
-        f"({sum(r.passed for r in results)}/{len(results)} robots)"
+        f"({sum(r.passed for r in results)}/{len(results)} robots, "
+        f"{sum(cell_ok)}/{len(cell_ok)} cells)"
     )
     return 0 if passed else 1
+
+
+def check_cell(name: str) -> tuple[bool, str]:
+    """Load a cell in physics; plan the arm to a point above its first object and back home,
+    run both in the world; report planning time, robot time, tracking and real-time factor."""
+    from robocell.cell import Cell
+
+    t = time.perf_counter()
+    cell = Cell.load(name)
+    load_s = time.perf_counter() - t
+    arm = cell.move_group(cell.robot_spec.arm)
+    first = cell.object_names[0]
+    p = cell.object_pose(first).position
+    arm.set_position_target([p[0], p[1], p[2] + 0.2])
+    plan = arm.plan()
+    if not plan.success:
+        return False, f"planning above {first} failed: {plan.reason}"
+    ok = arm.execute(plan)
+    err = arm.last_execution.result.max_tracking_error if arm.last_execution else float("nan")
+    home = cell.robot_spec.home
+    if home:
+        arm.set_named_target(home)
+        ok = ok and arm.go()
+    assert cell._stepper is not None
+    rtf = cell._stepper.real_time_factor
+    return ok, (
+        f"loaded in {load_s:.2f} s; planned above {first} in {plan.planning_time * 1e3:.0f} ms, "
+        f"{plan.trajectory.duration if plan.trajectory else 0:.2f} s of robot motion, "
+        f"tracked within {err * 1e3:.2f} mrad in physics at {rtf:.0f}x real time"
+    )
