@@ -1,0 +1,226 @@
+"""Grasp and place candidates for boxes, cylinders and spheres, for a parallel gripper.
+
+Candidates are built in the object's frame and ranked by a quality score in [0, 1]:
+- from above (approach along −z of the world), at yaw angles around the object's axis;
+- from the side (approach horizontal, or tilted down by a few angles), at angles around it.
+
+A candidate is kept only when the object fits between the open fingers with a margin, the
+fingers clear the surface the object stands on, the gripper's body clears the object's top, and
+(when a scene is given) the arm reaches it with a collision-free IK solution (the object may
+touch the fingers).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robocell.errors import GraspError
+from robocell.geometry.pose import Pose
+from robocell.geometry.shapes import Box, Cylinder, Shape, Sphere
+from robocell.grasping.grasp import Grasp, GripperGeometry, GripperTranslation, PlaceLocation
+from robocell.kinematics.ik import solve_ik
+from robocell.scene.planning_scene import PlanningScene
+
+
+def _frame(
+    approach: NDArray[np.float64], closing: NDArray[np.float64], g: GripperGeometry
+) -> NDArray[np.float64]:
+    """R_world_eef that points the gripper's approach axis along ``approach`` and its closing
+    axis along ``closing`` (both world, orthonormal)."""
+    third = np.cross(approach, closing)
+    A = np.column_stack([approach, closing, third])  # world
+    gt = np.cross(g.approach, g.closing)
+    B = np.column_stack([g.approach, g.closing, gt])  # eef
+    return A @ B.T
+
+
+def _extent(shape: Shape, axis_obj: NDArray[np.float64]) -> float:
+    """Width of a solid along a unit axis given in its frame [m]."""
+    if isinstance(shape, Box):
+        return float(np.abs(axis_obj) @ np.asarray(shape.size))
+    if isinstance(shape, Cylinder):
+        radial = math.hypot(axis_obj[0], axis_obj[1])
+        return 2 * shape.radius * radial + shape.length * abs(axis_obj[2])
+    if isinstance(shape, Sphere):
+        return 2 * shape.radius
+    raise GraspError(f"grasps are generated for boxes, cylinders and spheres, not {shape.kind}")
+
+
+def _half_height(shape: Shape) -> float:
+    if isinstance(shape, Box):
+        return 0.5 * shape.size[2]
+    if isinstance(shape, Cylinder):
+        return 0.5 * shape.length
+    if isinstance(shape, Sphere):
+        return shape.radius
+    raise GraspError(f"grasps are generated for boxes, cylinders and spheres, not {shape.kind}")
+
+
+def generate_grasps(
+    object_id: str,
+    shape: Shape,
+    T_world_object: Pose,
+    gripper: GripperGeometry,
+    scene: PlanningScene | None = None,
+    arm: str | None = None,
+    yaw_step_deg: float = 15.0,
+    tilts_deg: tuple[float, ...] = (0.0, 20.0, 40.0, 60.0),
+    clearance: float = 0.004,
+    approach_distance: tuple[float, float] = (0.05, 0.1),
+    retreat_distance: tuple[float, float] = (0.05, 0.1),
+    max_grasps: int = 0,
+) -> list[Grasp]:
+    """Ranked grasp candidates for an upright object (its z along the world's) resting on a
+    surface. With ``scene`` and ``arm``, only those the arm reaches collision-free are kept,
+    each with its IK solution."""
+    if yaw_step_deg <= 0:
+        raise GraspError(f"yaw_step_deg must be > 0, got {yaw_step_deg}")
+    T = T_world_object.matrix()
+    R_o, c_o = T[:3, :3], T[:3, 3]
+    hz = _half_height(shape)
+    bottom = c_o[2] - hz
+    top = c_o[2] + hz
+    max_w = gripper.open_width - 2 * clearance
+    out: list[Grasp] = []
+    z_w = np.array([0.0, 0.0, 1.0])
+
+    def add(kind: str, approach: NDArray[np.float64], closing: NDArray[np.float64],
+            tcp: NDArray[np.float64], quality: float) -> None:  # fmt: skip
+        width = _extent(shape, R_o.T @ closing)
+        if width > max_w:
+            return
+        R = _frame(approach, closing, gripper)
+        if kind == "top" and tcp[2] + gripper.body_clearance < top + 0.005:
+            return
+        T_w_tcp = np.eye(4)
+        T_w_tcp[:3, :3], T_w_tcp[:3, 3] = R, tcp
+        T_w_eef = T_w_tcp @ np.linalg.inv(gripper.T_eef_tcp)
+        q = quality * (1.0 - 0.3 * width / gripper.open_width)
+        out.append(
+            Grasp(
+                f"{object_id}/{kind}/{len(out)}",
+                Pose.from_matrix(T_w_eef),
+                Pose.from_matrix(T_w_tcp),
+                GripperTranslation(tuple(approach), *approach_distance),  # type: ignore[arg-type]
+                GripperTranslation((0.0, 0.0, 1.0), *retreat_distance),
+                gripper.open_command,
+                gripper.closed_command,
+                width,
+                float(q),
+                kind,
+                (object_id,),
+            )
+        )
+
+    yaws = np.radians(np.arange(0.0, 180.0, yaw_step_deg))
+    x_o, y_o = R_o[:, 0], R_o[:, 1]
+    # from above: tcp at the centre, raised so that the body clears the top and the fingers
+    # the support, as long as the pads still reach the centre's height
+    z_tcp = max(c_o[2], top + 0.005 - gripper.body_clearance, bottom + gripper.finger_reach + 0.002)
+    pad_back = gripper.pad_length - gripper.finger_reach  # pads behind the tcp
+    top_ok = z_tcp - gripper.finger_reach <= c_o[2] <= z_tcp + pad_back
+    for yaw in yaws:
+        closing = math.cos(yaw) * x_o + math.sin(yaw) * y_o
+        closing = closing - (closing @ z_w) * z_w
+        closing /= np.linalg.norm(closing)
+        face = abs(math.cos(2 * yaw)) if isinstance(shape, Box) else 1.0  # across faces
+        if top_ok:
+            add("top", -z_w, closing, np.array([c_o[0], c_o[1], z_tcp]), 0.7 + 0.3 * face)
+    # from the side: horizontal closing, approach tilted down by each tilt
+    for phi in np.radians(np.arange(0.0, 360.0, yaw_step_deg)):
+        horiz = np.array([math.cos(phi), math.sin(phi), 0.0])
+        closing = np.cross(z_w, horiz)
+        for tilt in np.radians(tilts_deg):
+            approach = math.cos(tilt) * horiz - math.sin(tilt) * z_w
+            face = 1.0
+            if isinstance(shape, Box):
+                face = abs(math.cos(2 * math.atan2(closing @ y_o, closing @ x_o)))
+            # tcp at the centre, raised until the gripper clears the support (as long as it
+            # stays below the top, where the fingers would grip nothing)
+            lift = max(0.0, bottom + gripper.body_half_height * math.cos(tilt) + 0.003 - c_o[2])
+            tcp = c_o + np.array([0.0, 0.0, lift])
+            if tcp[2] > top - 0.005:
+                continue
+            # back off along the approach until the gripper's body clears the object's near part
+            half = 0.5 * _extent(shape, R_o.T @ approach)
+            tcp = tcp - approach * max(0.0, half - (gripper.body_clearance - 0.005))
+            add("side", approach, closing, tcp, (0.55 + 0.15 * face) * (1 - 0.2 * tilt))
+    out.sort(key=lambda g: -g.quality)
+    if scene is not None:
+        if arm is None:
+            raise GraspError("checking grasps for reachability needs the arm group's name")
+        out = _reachable(out, scene, arm, gripper, object_id)
+    return out[:max_grasps] if max_grasps > 0 else out
+
+
+def _reachable(
+    grasps: list[Grasp], scene: PlanningScene, arm: str, gripper: GripperGeometry, object_id: str
+) -> list[Grasp]:
+    """The grasps whose pose the arm reaches without collision (the object may touch the
+    gripper's links), each with its IK solution nearest the current state."""
+    group = scene.robot.group(arm)
+    links = scene.robot.group(gripper.group).link_names
+    work = scene.copy()
+    if object_id in work.world_objects:
+        work.allow_collision(object_id, links)
+    checker = work.checker(group)
+    T_base_world = np.linalg.inv(work.link_pose(group.base_link).matrix())
+    seed = work.state.group_positions(group)
+    kept = []
+    for g in grasps:
+        res = solve_ik(
+            group, T_base_world @ g.pose.matrix(), seed=seed, checker=checker,
+            tip_link=gripper.eef_link, max_solutions=1, timeout=0.02,
+        )  # fmt: skip
+        if res.success:
+            kept.append(
+                Grasp(**{**g.__dict__, "joint_positions": res.solutions[0]})  # type: ignore[arg-type]
+            )
+    return kept
+
+
+def generate_places(
+    object_id: str,
+    target: NDArray[np.float64] | tuple[float, float, float],
+    grasp: Grasp,
+    T_world_object_at_grasp: Pose,
+    yaws_deg: tuple[float, ...] = (0.0, 90.0, 180.0, 270.0),
+    approach_distance: tuple[float, float] = (0.05, 0.1),
+    retreat_distance: tuple[float, float] = (0.05, 0.1),
+    open_command: float | None = None,
+) -> list[PlaceLocation]:
+    """Place candidates: the held object's centre at ``target`` (world), turned about the
+    vertical by each yaw, the gripper keeping the grasp it holds the object with; approach
+    down and retreat up."""
+    p = np.asarray(target, dtype=float)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise GraspError(f"a place target needs 3 finite numbers, got {target!r}")
+    T_obj_eef = T_world_object_at_grasp.inverse() * grasp.pose
+    out = []
+    for k, yaw in enumerate(yaws_deg):
+        # the object turned about the vertical by yaw from how it was held, centred at p
+        R = _rz(math.radians(yaw)) @ T_world_object_at_grasp.rotation()
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R, p
+        obj = Pose.from_matrix(T)
+        out.append(
+            PlaceLocation(
+                f"{object_id}/place/{k}",
+                obj * T_obj_eef,
+                obj,
+                GripperTranslation((0.0, 0.0, -1.0), *approach_distance),
+                GripperTranslation((0.0, 0.0, 1.0), *retreat_distance),
+                grasp.pre_grasp_posture if open_command is None else open_command,
+                1.0 - 0.1 * k,
+                (object_id,),
+            )
+        )
+    return out
+
+
+def _rz(a: float) -> NDArray[np.float64]:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])

@@ -1,0 +1,97 @@
+"""Gripper geometry read from the description; grasp and place candidates."""
+
+import numpy as np
+import pytest
+
+from robocell import Pose
+from robocell.cell import Cell
+from robocell.errors import GraspError
+from robocell.geometry.shapes import Box, Mesh
+from robocell.grasping import GripperGeometry, generate_grasps, generate_places
+from robocell.kinematics import fk
+
+
+@pytest.fixture(scope="module")
+def cell():
+    return Cell.load("sorting", mode="kinematic", time_scale=0)
+
+
+@pytest.fixture(scope="module")
+def gripper(cell):
+    return GripperGeometry.from_robot(cell.robot, "gripper")
+
+
+def test_gripper_geometry_from_the_description(gripper, ur5e):
+    # the spec: 85 mm open at 0, closed at 0.8, linear; TCP 0.15 m along tool0's x
+    assert gripper.eef_link == "tool0" and gripper.tcp_link == "tcp"
+    assert np.allclose(gripper.approach, [1, 0, 0])
+    assert abs(gripper.closing @ gripper.approach) < 1e-9
+    assert gripper.open_width == pytest.approx(0.085, abs=1e-6)
+    assert gripper.closed_width == pytest.approx(0.0, abs=1e-6)
+    assert gripper.command_for(0.05) == pytest.approx(0.8 * (1 - 0.05 / 0.085))
+    assert np.allclose(gripper.T_eef_tcp[:3, 3], [0.15, 0, 0])
+    g2 = GripperGeometry.from_robot(ur5e, "gripper")
+    assert g2.open_command == pytest.approx(0.04) and g2.closed_command == pytest.approx(0.0)
+    assert g2.open_width > g2.closed_width
+    with pytest.raises(GraspError, match="no end effector uses group 'arm'"):
+        GripperGeometry.from_robot(ur5e, "arm")
+
+
+def test_every_object_of_the_cell_has_a_reachable_grasp(cell, gripper):
+    arm = cell.robot.group("arm")
+    for o in cell.spec.objects:
+        grasps = generate_grasps(
+            o.name, o.shape, cell.object_pose(o.name), gripper, cell.scene, "arm"
+        )
+        assert grasps, o.name
+        assert [g.quality for g in grasps] == sorted((g.quality for g in grasps), reverse=True)
+        for g in grasps[:3]:
+            assert g.width <= gripper.open_width
+            # the IK solution puts tool0 exactly at the grasp pose
+            T = cell.scene.T_world_root @ fk(arm, g.joint_positions, "tool0")
+            assert np.allclose(T, g.pose.matrix(), atol=1e-5)
+            # collision-free, the object touching only the gripper's links
+            work = cell.scene.copy()
+            work.allow_collision(o.name, cell.robot.group("gripper").link_names)
+            assert not work.checker(arm).check(g.joint_positions)[0]
+        # beyond the wrist's reach from above, only side grasps
+        if o.pose.position[0] > 0.6:
+            assert all(g.kind == "side" for g in grasps), o.name
+
+
+def test_candidates_respect_the_stroke(gripper):
+    wide = Box((0.2, 0.2, 0.05))
+    assert generate_grasps("slab", wide, Pose([0.4, 0, 0.025]), gripper) == []
+    narrow = Box((0.03, 0.2, 0.05))
+    grasps = generate_grasps("bar", narrow, Pose([0.4, 0, 0.025]), gripper)
+    assert grasps and all(g.width <= 0.085 for g in grasps)
+    # across the 3 cm side: the closing axis is the box's x
+    best = grasps[0]
+    closing_world = best.tcp.rotation() @ np.array([0.0, -1.0, 0.0])  # tcp frame = tool0's
+    assert abs(closing_world @ [1, 0, 0]) > 0.99
+
+
+def test_bad_input(gripper):
+    mesh = Mesh(np.eye(3), np.array([[0, 1, 2]]))
+    with pytest.raises(GraspError, match="boxes, cylinders and spheres"):
+        generate_grasps("m", mesh, Pose(), gripper)
+    with pytest.raises(GraspError, match="yaw_step_deg"):
+        generate_grasps("b", Box((0.05, 0.05, 0.05)), Pose(), gripper, yaw_step_deg=0)
+
+
+def test_places_put_the_object_at_the_target(cell, gripper):
+    o = cell.spec.object("red_box")
+    T_obj = cell.object_pose("red_box")
+    g = generate_grasps(o.name, o.shape, T_obj, gripper, cell.scene, "arm")[0]
+    target = np.array([-0.4, 0.15, 0.8])
+    places = generate_places("red_box", target, g, T_obj)
+    assert len(places) == 4
+    for p in places:
+        assert np.allclose(p.object_pose.position, target)
+        # the object keeps its offset in the gripper
+        rel_grasp = T_obj.inverse() * g.pose
+        rel_place = p.object_pose.inverse() * p.pose
+        assert rel_grasp.isclose(rel_place, atol=1e-9, rot_atol=1e-9)
+        assert p.pre_place_approach.direction == (0.0, 0.0, -1.0)
+    with pytest.raises(GraspError, match="3 finite numbers"):
+        generate_places("red_box", [0, np.nan, 0], g, T_obj)
