@@ -1,0 +1,282 @@
+"""Pick and place as stages with fallbacks (MoveIt's pick/place pipeline), on a cell.
+
+``pick`` tries each grasp in quality order: open the gripper, move to the pre-grasp, approach
+in a straight line, close, check the object is really between the fingers (physics), attach it
+to the planning scene, retreat in a straight line. ``place`` likewise: move to the pre-place
+with the object attached, approach, open, detach, retreat, check the object rests where it was
+put (physics). Every failure says which stage failed for which candidate, and why; the next
+candidate starts from a clean state (gripper open, nothing half-attached).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robocell.cell.cell import Cell
+from robocell.cell.move_group import MoveGroup
+from robocell.errors import GraspError, RobocellError
+from robocell.geometry.pose import Pose
+from robocell.grasping.grasp import Grasp, PlaceLocation
+from robocell.trajectory.timing import ptp
+
+
+@dataclass
+class StageResult:
+    """One stage of one candidate: ``stage`` (open, move, approach, close, check, attach,
+    retreat, release, settle), whether it worked, and why not."""
+
+    candidate: str
+    stage: str
+    success: bool
+    reason: str = ""
+
+
+@dataclass
+class ManipulationResult:
+    """The outcome of a pick or a place: the candidate that worked (if any), every stage
+    tried, and planning and robot time [s]."""
+
+    success: bool
+    candidate: str = ""
+    reason: str = ""
+    stages: list[StageResult] = field(default_factory=list)
+    planning_time: float = 0.0
+    robot_time: float = 0.0
+
+    def failures(self) -> list[StageResult]:
+        return [s for s in self.stages if not s.success]
+
+
+class _Failed(Exception):
+    def __init__(self, stage: str, reason: str) -> None:
+        super().__init__(reason)
+        self.stage, self.reason = stage, reason
+
+
+class Manipulator:
+    """Pick and place for the cell's arm and gripper."""
+
+    def __init__(self, cell: Cell, planning_time: float = 1.0) -> None:
+        self.cell = cell
+        spec = cell.robot_spec
+        if spec.gripper is None:
+            raise GraspError(f"robot {spec.name!r} has no gripper group in its cell file")
+        self.arm: MoveGroup = cell.move_group(spec.arm)
+        self.gripper: MoveGroup = cell.move_group(spec.gripper)
+        from robocell.grasping.grasp import GripperGeometry
+
+        self.geometry = GripperGeometry.from_robot(
+            cell.robot, spec.gripper, open_command=spec.gripper_command[0],
+            closed_command=spec.gripper_command[1],
+        )  # fmt: skip
+        self.arm.set_end_effector_link(self.geometry.eef_link)
+        self.arm.set_planning_time(planning_time)
+        self.finger_links = cell.robot.group(spec.gripper).link_names
+        self._plan_s = 0.0
+        self._robot_s = 0.0
+
+    # ------------------------------------------------------------------ helpers
+    def _set_gripper(self, command: float) -> None:
+        g = self.gripper.group
+        now = self.gripper.get_current_joint_values()
+        traj = ptp(g, np.clip(now, g.lower, g.upper), [command])
+        self.cell.controller(g.name).execute(traj).wait()
+        self._robot_s += traj.duration
+        if self.cell.world is not None:
+            self.cell.world.step(50)  # let the fingers settle on what they hold
+        else:
+            self.cell.scene.state.set_group_positions(g, [command])
+
+    def _move_to(self, pose: Pose) -> None:
+        self.arm.set_pose_target(pose)
+        t = time.perf_counter()
+        plan = self.arm.plan()
+        self._plan_s += time.perf_counter() - t
+        if not plan.success or plan.trajectory is None:
+            raise _Failed("move", plan.reason or "no plan")
+        if not self.arm.execute(plan):
+            raise _Failed("move", "execution failed")
+        self._robot_s += plan.trajectory.duration
+
+    def _line(self, stage: str, offset: np.ndarray, min_distance: float) -> None:
+        t = time.perf_counter()
+        T = self.arm.get_current_pose()
+        target = Pose(T.position + offset, T.orientation)
+        cp = self.arm.compute_cartesian_path([target])
+        self._plan_s += time.perf_counter() - t
+        total = float(np.linalg.norm(offset))
+        if cp.fraction * total < min_distance - 1e-6 or cp.fraction <= 0:
+            raise _Failed(stage, f"straight line only {cp.fraction:.0%} possible: {cp.reason}")
+        if not self.arm.execute(cp.trajectory):
+            raise _Failed(stage, "execution failed")
+        self._robot_s += cp.trajectory.duration
+
+    def _supports(self, name: str) -> list[str]:
+        """What the object rests on or touches now, in the scene (not the gripper)."""
+        scene = self.cell.scene
+        pairs = scene.colliding_pairs()
+        out = set()
+        for a, b in pairs:
+            if name in (a, b):
+                other = b if a == name else a
+                if other not in self.finger_links:
+                    out.add(other)
+        return sorted(out)
+
+    # ------------------------------------------------------------------ pick
+    def pick(self, name: str, grasps: list[Grasp]) -> ManipulationResult:
+        """Pick object ``name`` with the first grasp (in quality order) that works."""
+        cell, scene = self.cell, self.cell.scene
+        if name not in cell.object_names:
+            raise GraspError(f"unknown object {name!r}; known: {', '.join(cell.object_names)}")
+        if not grasps:
+            return ManipulationResult(False, reason=f"no grasp candidates for {name!r}")
+        self._plan_s = self._robot_s = 0.0
+        result = ManipulationResult(False)
+        for g in sorted(grasps, key=lambda x: -x.quality):
+            try:
+                cell.sync_scene()
+                self._set_gripper(g.pre_grasp_posture)
+                result.stages.append(StageResult(g.id, "open", True))
+                pre = Pose(g.pose.position - g.pre_grasp_approach.vector(), g.pose.orientation)
+                self._move_to(pre)
+                result.stages.append(StageResult(g.id, "move", True))
+                scene.allow_collision(name, self.finger_links)
+                self._line(
+                    "approach", g.pre_grasp_approach.vector(), g.pre_grasp_approach.min_distance
+                )
+                result.stages.append(StageResult(g.id, "approach", True))
+                self._set_gripper(g.grasp_posture)
+                if cell.world is not None and not cell.is_grasped(name):
+                    raise _Failed("close", "the fingers closed but do not hold the object")
+                result.stages.append(StageResult(g.id, "close", True))
+                cell.sync_scene()
+                self.arm.attach_object(name, touch_links=self.finger_links)
+                supports = self._supports(name)  # held, it is checked against the world
+                for s in supports:  # leaving the surface it rests on
+                    scene.allow_collision(name, s)
+                before = cell.held_offset(name) if cell.world is not None else None
+                try:
+                    self._line(
+                        "retreat", g.post_grasp_retreat.vector(), g.post_grasp_retreat.min_distance
+                    )
+                finally:
+                    for s in supports:
+                        scene.allow_collision(name, s, False)
+                if cell.world is not None:
+                    if not cell.is_grasped(name):
+                        raise _Failed("retreat", "the object dropped out of the gripper")
+                    assert before is not None
+                    if cell.has_slipped(name, before, 0.01):
+                        raise _Failed("retreat", "the object slipped in the gripper")
+                result.stages.append(StageResult(g.id, "retreat", True))
+                result.success, result.candidate = True, g.id
+                break
+            except _Failed as f:
+                result.stages.append(StageResult(g.id, f.stage, False, f.reason))
+                self._recover(name)
+            except RobocellError as exc:
+                result.stages.append(StageResult(g.id, "plan", False, str(exc)))
+                self._recover(name)
+        if not result.success:
+            last = result.failures()[-1] if result.failures() else None
+            result.reason = (
+                f"all {len(grasps)} grasps failed; last: {last.stage} of {last.candidate}: "
+                f"{last.reason}"
+                if last
+                else "no grasp worked"
+            )
+        result.planning_time, result.robot_time = self._plan_s, self._robot_s
+        return result
+
+    def _recover(self, name: str) -> None:
+        """After a failed candidate: open the gripper, drop the object from the scene's hand,
+        forbid the touches allowed for the attempt."""
+        scene = self.cell.scene
+        try:
+            self._set_gripper(self.geometry.open_command)
+        except RobocellError:
+            pass
+        if name in scene.attached_objects:
+            scene.detach_object(name)
+        self.cell.sync_scene()
+        scene.allow_collision(name, self.finger_links, False)
+
+    # ------------------------------------------------------------------ place
+    def place(
+        self, name: str, locations: list[PlaceLocation], settle_tolerance: float = 0.03
+    ) -> ManipulationResult:
+        """Place the held object ``name`` at the first location (in quality order) that
+        works."""
+        cell, scene = self.cell, self.cell.scene
+        if name not in scene.attached_objects:
+            raise GraspError(
+                f"object {name!r} is not held; held: {', '.join(scene.attached_objects) or 'none'}"
+            )
+        self._plan_s = self._robot_s = 0.0
+        result = ManipulationResult(False)
+        for loc in sorted(locations, key=lambda x: -x.quality):
+            try:
+                pre = Pose(
+                    loc.pose.position - loc.pre_place_approach.vector(), loc.pose.orientation
+                )
+                self._move_to(pre)
+                result.stages.append(StageResult(loc.id, "move", True))
+                self._line(
+                    "approach", loc.pre_place_approach.vector(), loc.pre_place_approach.min_distance
+                )
+                result.stages.append(StageResult(loc.id, "approach", True))
+                self._set_gripper(loc.post_place_posture)
+                cell.sync_scene()
+                scene.detach_object(name)
+                if cell.world is None:
+                    scene.move_object(name, loc.object_pose)
+                result.stages.append(StageResult(loc.id, "release", True))
+                scene.allow_collision(name, self.finger_links)
+                try:
+                    self._line(
+                        "retreat",
+                        loc.post_place_retreat.vector(),
+                        loc.post_place_retreat.min_distance,
+                    )
+                finally:
+                    scene.allow_collision(name, self.finger_links, False)
+                result.stages.append(StageResult(loc.id, "retreat", True))
+                if cell.world is not None:
+                    cell.world.step(250)
+                    p = cell.world.object_pose(name).position
+                    off = float(np.linalg.norm(p[:2] - loc.object_pose.position[:2]))
+                    if off > settle_tolerance:
+                        result.stages.append(
+                            StageResult(
+                                loc.id,
+                                "settle",
+                                False,
+                                f"object rests {off * 1e3:.0f} mm from its place",
+                            )
+                        )
+                        cell.sync_scene()
+                        result.reason = "the object did not stay where it was put"
+                        break
+                    cell.sync_scene()
+                result.success, result.candidate = True, loc.id
+                break
+            except _Failed as f:
+                result.stages.append(StageResult(loc.id, f.stage, False, f.reason))
+                if name not in scene.attached_objects:
+                    break  # released: no other location can be tried with it
+            except RobocellError as exc:
+                result.stages.append(StageResult(loc.id, "plan", False, str(exc)))
+        if not result.success and not result.reason:
+            last = result.failures()[-1] if result.failures() else None
+            result.reason = (
+                f"all {len(locations)} places failed; last: {last.stage} of "
+                f"{last.candidate}: {last.reason}"
+                if last
+                else "no place worked"
+            )
+        result.planning_time, result.robot_time = self._plan_s, self._robot_s
+        return result
