@@ -12,3 +12,11 @@ def test_info_self_check_passes(capsys):
 def test_no_command_prints_help(capsys):
     assert main([]) == 2
     assert "info" in capsys.readouterr().out
+
+
+def test_demo_sorts_layout_0_in_physics(capsys):
+    """The main job: every object of the seed layout ends in its tray (exit status 0)."""
+    assert main(["demo"]) == 0
+    out = capsys.readouterr().out
+    assert "8/8 objects in their trays" in out
+    assert out.count("in its tray") == 8

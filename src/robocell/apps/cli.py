@@ -22,6 +22,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="robocell", description="robocell command line")
     sub = parser.add_subparsers(dest="command", metavar="command")
     sub.add_parser("info", help="list bundled robots and cells, and run a short self-check")
+    demo = sub.add_parser("demo", help="sort the sorting cell's eight objects into their trays")
+    demo.add_argument("--by", choices=["color", "shape"], default="color")
+    demo.add_argument("--layout", type=int, default=0, help="0: the seed's; k > 0: randomized")
+    demo.add_argument("--mode", choices=["physics", "kinematic"], default="physics")
     bench = sub.add_parser("bench", help="run a benchmark and print its table")
     bench_sub = bench.add_subparsers(dest="bench", metavar="benchmark")
     bp = bench_sub.add_parser("planning", help="MotionBenchMaker problems (../shared/bench/mbm)")
@@ -39,6 +43,10 @@ def main(argv: list[str] | None = None) -> int:
             from robocell.apps.selfcheck import run_info
 
             return run_info()
+        if args.command == "demo":
+            from robocell.apps.demo import run_demo
+
+            return run_demo(args.by, args.layout, args.mode)
         if args.command == "bench" and args.bench == "planning":
             from robocell.apps.bench_planning import run
 

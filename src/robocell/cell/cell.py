@@ -193,6 +193,38 @@ class Cell:
         if self.world is not None:
             self.world.set_object_pose(name, self._initial[name])
 
+    def drop(self, name: str) -> Pose:
+        """Kinematic mode: let a released object fall straight down onto the highest fixture
+        part under its centre (or the floor), keeping its orientation; returns its new pose.
+        (In physics the world does this by itself.)"""
+        pose = self.object_pose(name)
+        if self.world is not None:
+            return pose
+        x, y, z = pose.position
+        o = self.spec.object(name)
+        support = 0.0
+        for f in self.spec.fixtures:
+            for part in f.parts:
+                T = (f.pose * part.pose).matrix()
+                local = np.linalg.inv(T) @ np.array([x, y, z, 1.0])
+                shape = part.shape
+                half = np.asarray(getattr(shape, "size", (0.0, 0.0, 0.0))) / 2
+                if half.any() and abs(local[0]) <= half[0] and abs(local[1]) <= half[1]:
+                    top = float((T @ np.array([0, 0, half[2], 1.0]))[2])
+                    if top <= z + 1e-9:
+                        support = max(support, top)
+        lowest = z - self._half_extent_z(o, pose)
+        new = Pose(pose.position - np.array([0.0, 0.0, lowest - support]), pose.orientation)
+        self.scene.move_object(name, new)
+        return new
+
+    @staticmethod
+    def _half_extent_z(o: object, pose: Pose) -> float:
+        from robocell.geometry.shapes import triangulate
+
+        v, _ = triangulate(o.shape, 16)  # type: ignore[attr-defined]
+        return float(-(v @ pose.rotation().T)[:, 2].min())
+
     # ------------------------------------------------------------------ grasps
     def _gripper_links(self) -> list[str]:
         g = self.robot_spec.gripper

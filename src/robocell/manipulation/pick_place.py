@@ -19,7 +19,7 @@ from robocell.cell.cell import Cell
 from robocell.cell.move_group import MoveGroup
 from robocell.errors import GraspError, RobocellError
 from robocell.geometry.pose import Pose
-from robocell.grasping.grasp import Grasp, PlaceLocation
+from robocell.grasping.grasp import Grasp, GripperTranslation, PlaceLocation
 from robocell.trajectory.timing import ptp
 
 
@@ -101,6 +101,21 @@ class Manipulator:
             raise _Failed("move", "execution failed")
         self._robot_s += plan.trajectory.duration
 
+    def _move_to_pre(self, pose: Pose, approach: GripperTranslation) -> float:
+        """Move to the start of an approach: ``desired_distance`` back from ``pose`` if the arm
+        reaches there, else ``min_distance``; returns the distance used."""
+        tried: list[str] = []
+        for dist in dict.fromkeys((approach.desired_distance, approach.min_distance)):
+            pre = Pose(pose.position - approach.vector(dist), pose.orientation)
+            try:
+                self._move_to(pre)
+                return dist
+            except _Failed as f:
+                tried.append(f"{dist:.3f} m back: {f.reason}")
+            except RobocellError as exc:
+                tried.append(f"{dist:.3f} m back: {exc}")
+        raise _Failed("move", "; ".join(tried))
+
     def _line(self, stage: str, offset: np.ndarray, min_distance: float) -> None:
         t = time.perf_counter()
         T = self.arm.get_current_pose()
@@ -141,12 +156,11 @@ class Manipulator:
                 cell.sync_scene()
                 self._set_gripper(g.pre_grasp_posture)
                 result.stages.append(StageResult(g.id, "open", True))
-                pre = Pose(g.pose.position - g.pre_grasp_approach.vector(), g.pose.orientation)
-                self._move_to(pre)
+                dist = self._move_to_pre(g.pose, g.pre_grasp_approach)
                 result.stages.append(StageResult(g.id, "move", True))
                 scene.allow_collision(name, self.finger_links)
                 self._line(
-                    "approach", g.pre_grasp_approach.vector(), g.pre_grasp_approach.min_distance
+                    "approach", g.pre_grasp_approach.vector(dist), g.pre_grasp_approach.min_distance
                 )
                 result.stages.append(StageResult(g.id, "approach", True))
                 self._set_gripper(g.grasp_posture)
@@ -220,13 +234,12 @@ class Manipulator:
         result = ManipulationResult(False)
         for loc in sorted(locations, key=lambda x: -x.quality):
             try:
-                pre = Pose(
-                    loc.pose.position - loc.pre_place_approach.vector(), loc.pose.orientation
-                )
-                self._move_to(pre)
+                dist = self._move_to_pre(loc.pose, loc.pre_place_approach)
                 result.stages.append(StageResult(loc.id, "move", True))
                 self._line(
-                    "approach", loc.pre_place_approach.vector(), loc.pre_place_approach.min_distance
+                    "approach",
+                    loc.pre_place_approach.vector(dist),
+                    loc.pre_place_approach.min_distance,
                 )
                 result.stages.append(StageResult(loc.id, "approach", True))
                 self._set_gripper(loc.post_place_posture)
@@ -234,6 +247,7 @@ class Manipulator:
                 scene.detach_object(name)
                 if cell.world is None:
                     scene.move_object(name, loc.object_pose)
+                    cell.drop(name)  # released above the surface: it falls onto it
                 result.stages.append(StageResult(loc.id, "release", True))
                 scene.allow_collision(name, self.finger_links)
                 try:
