@@ -67,6 +67,8 @@ def sort(cell: Cell, by: str = "color") -> list[Row]:
             if placed.success or o.name not in cell.scene.attached_objects:
                 break
         assert placed is not None
+        if o.name in cell.scene.attached_objects:  # no place worked: let go, carry on
+            hand.release(o.name)
         ok = in_tray(cell, o.name, tray)
         rows.append(
             Row(o.name, tray, grasp.id.split("/", 1)[1],

@@ -206,6 +206,17 @@ class Manipulator:
         result.planning_time, result.robot_time = self._plan_s, self._robot_s
         return result
 
+    def release(self, name: str) -> None:
+        """Let go of a held object where it is (open the gripper, detach it): after a place
+        that failed, so that the next pick starts with an empty hand."""
+        if name not in self.cell.scene.attached_objects:
+            raise GraspError(f"object {name!r} is not held")
+        self._set_gripper(self.geometry.open_command)
+        self.cell.scene.detach_object(name)
+        if self.cell.world is None:
+            self.cell.drop(name)
+        self.cell.sync_scene()
+
     def _recover(self, name: str) -> None:
         """After a failed candidate: open the gripper, drop the object from the scene's hand,
         forbid the touches allowed for the attempt."""
