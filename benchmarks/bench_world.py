@@ -38,7 +38,7 @@ def main() -> None:
     cell = Cell.load("sorting")
     w = cell.world
     arm = cell.robot.group("arm")
-    c = PhysicsController(cell._stepper, arm, record=True)  # type: ignore[arg-type]
+    c = PhysicsController(cell.stepper, arm, record=True)  # type: ignore[arg-type]
 
     # 1 + 2: full-speed moves, real-time factor and tool tracking
     a = np.array([1.2, -0.3, 0.2, 1.0, -0.8, 1.5])

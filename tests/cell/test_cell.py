@@ -23,7 +23,10 @@ def cell():
 def test_scene_and_world_agree_and_objects_rest(cell):
     for name in cell.object_names:
         assert cell.world.object_pose(name).isclose(cell.scene.get_object(name).pose, atol=1e-9)
-    cell.world.step(500)  # 1 s
+    cell.world.step(5)  # awake: each object stands on the conveyor
+    for name in cell.object_names:
+        assert "conveyor" in cell.world.touching(name)
+    cell.world.step(500)  # 1 s: at rest where they were put (then asleep)
     for name in cell.object_names:
         moved = cell.world.object_pose(name).position - cell.scene.get_object(name).pose.position
         assert np.linalg.norm(moved) < 1e-3

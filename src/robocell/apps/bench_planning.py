@@ -22,16 +22,6 @@ from robocell.planning import JointGoal, MotionPlanRequest, Planner
 from robocell.robot.model import RobotModel
 from robocell.scene.moveit_yaml import load_request, load_scene
 
-SETS = (
-    "table_pick",
-    "table_under_pick",
-    "box",
-    "bookshelf_small",
-    "bookshelf_tall",
-    "bookshelf_thin",
-    "cage",
-)
-
 
 @dataclass
 class ProblemResult:

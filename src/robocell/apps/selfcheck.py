@@ -7,9 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robocell.cell.cell_file import bundled_cells
 from robocell.geometry.pose import Pose
 from robocell.kinematics import fk, ik_solver, pose_error, solve_ik
-from robocell.robot.model import ASSETS, RobotModel, bundled_robots
+from robocell.robot.model import RobotModel, bundled_robots
 from robocell.scene.planning_scene import PlanningScene
 
 
@@ -27,11 +28,6 @@ class CheckResult:
     @property
     def passed(self) -> bool:
         return self.ik_ok == self.ik_total and self.collision_ok
-
-
-def bundled_cells() -> list[str]:
-    folder = ASSETS.parent / "cells"
-    return sorted(p.stem for p in folder.glob("*.yaml")) if folder.is_dir() else []
 
 
 def check_robot(name: str, n_poses: int = 20, seed: int = 0) -> CheckResult:
@@ -123,8 +119,8 @@ def check_cell(name: str) -> tuple[bool, str]:
     if home:
         arm.set_named_target(home)
         ok = ok and arm.go()
-    assert cell._stepper is not None
-    rtf = cell._stepper.real_time_factor
+    assert cell.stepper is not None
+    rtf = cell.stepper.real_time_factor
     return ok, (
         f"loaded in {load_s:.2f} s; planned above {first} in {plan.planning_time * 1e3:.0f} ms, "
         f"{plan.trajectory.duration if plan.trajectory else 0:.2f} s of robot motion, "

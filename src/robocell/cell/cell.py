@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +27,9 @@ from robocell.geometry.pose import Pose
 from robocell.robot.model import RobotModel
 from robocell.scene.objects import CollisionObject
 from robocell.scene.planning_scene import PlanningScene
+
+if TYPE_CHECKING:
+    from robocell.execution.physics import Stepper
 
 MODES = ("physics", "kinematic")
 
@@ -116,6 +120,12 @@ class Cell:
     ) -> Cell:
         """A bundled cell by name (``"sorting"``) or a cell file by path."""
         return cls(load_cell_file(cell_path(name_or_path)), layout, mode, realtime, time_scale)
+
+    @property
+    def stepper(self) -> Stepper | None:
+        """The thread that steps the world for the controllers (None in kinematic mode); its
+        ``real_time_factor`` is what the stepping achieved so far."""
+        return self._stepper
 
     # ------------------------------------------------------------------ names
     @property

@@ -6,7 +6,7 @@ the path that will be executed at fine resolution and times it.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,7 +46,6 @@ class PlannerConfig:
     ik_timeout: float = 0.05
     numeric_goal_solutions: int = 4
     fix_start_radius: float = 0.2
-    extra: dict[str, float] = field(default_factory=dict)
 
 
 class Planner:

@@ -324,28 +324,26 @@ class World:
                 if j.type != "continuous" and math.isfinite(j.lower):
                     jt.range = [j.lower, j.upper]
                     jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
-                g = gains.get(j.name) or _default_gains(j.type, robot, link)
+                g = gains.get(j.name) or _default_gains(j.type)
                 jt.armature = g.armature
                 self._sim_joints.append(j.name)
                 if j.mimic is None or j.mimic[0] in self._virtual:
-                    # each follower of a virtual driver (each finger) gets its own force-limited
-                    # servo: coupling them by a (soft) equality let a held object push both
-                    # fingers sideways
+                    # each follower of a virtual driver (each finger) gets its own
+                    # force-limited servo; a stiff equality (below) keeps the fingers symmetric
                     follower = j.mimic is not None
-                    if True:
-                        a = spec.add_actuator()
-                        a.name = f"servo_{j.name}"
-                        a.target = j.name
-                        a.trntype = mujoco.mjtTrn.mjTRN_JOINT
-                        kp, kv = g.kp, g.kv
-                        a.gaintype = mujoco.mjtGain.mjGAIN_FIXED
-                        a.gainprm = [kp] + [0.0] * 9
-                        a.biastype = mujoco.mjtBias.mjBIAS_AFFINE
-                        a.biasprm = [0.0, -kp, -kv] + [0.0] * 7
-                        if follower:  # a gripper finger: force-limited
-                            a.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-                            a.forcerange = [-grip_f, grip_f]
-                        self._actuated.append(j.name)
+                    a = spec.add_actuator()
+                    a.name = f"servo_{j.name}"
+                    a.target = j.name
+                    a.trntype = mujoco.mjtTrn.mjTRN_JOINT
+                    kp, kv = g.kp, g.kv
+                    a.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+                    a.gainprm = [kp] + [0.0] * 9
+                    a.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+                    a.biasprm = [0.0, -kp, -kv] + [0.0] * 7
+                    if follower:  # a gripper finger: force-limited
+                        a.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+                        a.forcerange = [-grip_f, grip_f]
+                    self._actuated.append(j.name)
             b.gravcomp = 1.0  # the robot's controller compensates gravity
             for k, (shape, T) in enumerate(geoms.get(link, [])):
                 _add_shape(b, spec, f"robot/{link}#{k}", shape, Pose.from_matrix(T),
@@ -399,14 +397,12 @@ class World:
     def set_robot_positions(self, full: NDArray[np.float64]) -> None:
         """Teleport the robot to the full variable vector ``full`` (at rest, servos there)."""
         with self.lock:
-            r = self.robot
             for name in self._sim_joints:
                 q = self._joint_value_from_variables(name, full)
                 self.data.qpos[self._jnt_qpos[name]] = q
                 self.data.qvel[self._jnt_dof[name]] = 0.0
                 if name in self._act:
                     self.data.ctrl[self._act[name]] = q
-            del r
             mujoco.mj_forward(self.model, self.data)
 
     def _joint_value_from_variables(self, name: str, full: NDArray[np.float64]) -> float:
@@ -574,7 +570,7 @@ class World:
         return img.copy()
 
 
-def _default_gains(jtype: str, robot: RobotModel, link: str) -> ServoGains:
+def _default_gains(jtype: str) -> ServoGains:
     """Stiff industrial servos: rotor inertia (armature) as geared motors have, and a critically
     damped PD on top of it."""
     if jtype == "prismatic":

@@ -17,7 +17,49 @@ from toppra.interpolator import AbstractGeometricPath
 from robocell.errors import PlanningError
 
 
-class BlendedPath(AbstractGeometricPath):  # type: ignore[misc]
+class _ArcLengthPath(AbstractGeometricPath):  # type: ignore[misc]
+    """What the joint paths share: parameterized by arc length ``s`` ∈ [0, length], stopping
+    (if at all) at ``stops``; ``breakpoints`` are where a time parameterization needs grid
+    points."""
+
+    _dof: int
+    _length: float
+    breakpoints: NDArray[np.float64]
+    stops: list[float]
+
+    @staticmethod
+    def _clean(waypoints: ArrayLike) -> NDArray[np.float64]:
+        """(K >= 2, dof) waypoints without repeats (a repeated point has no direction)."""
+        wp = np.asarray(waypoints, dtype=float)
+        if wp.ndim != 2 or wp.shape[0] < 2:
+            raise PlanningError(f"a path needs (K >= 2, dof) waypoints, got shape {wp.shape}")
+        keep = np.concatenate([[True], np.linalg.norm(np.diff(wp, axis=0), axis=1) > 1e-9])
+        return wp[keep]
+
+    @property
+    def dof(self) -> int:
+        return self._dof
+
+    @property
+    def path_interval(self) -> NDArray[np.float64]:
+        return np.array([0.0, self._length])
+
+    @property
+    def length(self) -> float:
+        """Arc length [rad] in joint space."""
+        return self._length
+
+    @property
+    def waypoints(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self.breakpoints, self(self.breakpoints)
+
+    def split_at_stops(self) -> list[tuple[float, float]]:
+        """[s0, s1] intervals between the points where the motion must stop."""
+        bounds = [0.0, *self.stops, self._length]
+        return [(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if b - a > 1e-12]
+
+
+class BlendedPath(_ArcLengthPath):
     """Straight segments between ``waypoints`` (K, dof), each interior corner replaced by a
     circular arc that stays within ``max_deviation`` [rad] of the corner and uses at most half
     of each neighbouring segment. ``max_deviation=0`` keeps the sharp corners (the motion
@@ -31,12 +73,7 @@ class BlendedPath(AbstractGeometricPath):  # type: ignore[misc]
         max_deviation: float = 0.05,
         blend_length: float | None = None,
     ) -> None:
-        wp = np.asarray(waypoints, dtype=float)
-        if wp.ndim != 2 or wp.shape[0] < 2:
-            raise PlanningError(f"a path needs (K >= 2, dof) waypoints, got shape {wp.shape}")
-        # drop repeated waypoints: they have no direction
-        keep = np.concatenate([[True], np.linalg.norm(np.diff(wp, axis=0), axis=1) > 1e-9])
-        wp = wp[keep]
+        wp = self._clean(waypoints)
         if wp.shape[0] < 2:
             wp = np.vstack([wp, wp])
         self._wp = wp
@@ -126,28 +163,6 @@ class BlendedPath(AbstractGeometricPath):  # type: ignore[misc]
             pts.append(np.linspace(a, b, n + 1))
         return np.unique(np.concatenate(pts))
 
-    def split_at_stops(self) -> list[tuple[float, float]]:
-        """[s0, s1] intervals between the sharp corners."""
-        bounds = [0.0, *self.stops, self._length]
-        return [(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if b - a > 1e-12]
-
-    @property
-    def dof(self) -> int:
-        return self._dof
-
-    @property
-    def path_interval(self) -> NDArray[np.float64]:
-        return np.array([0.0, self._length])
-
-    @property
-    def length(self) -> float:
-        """Arc length [rad] in joint space."""
-        return self._length
-
-    @property
-    def waypoints(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        return self.breakpoints, self(self.breakpoints)
-
     def __call__(self, path_positions: ArrayLike, order: int = 0) -> NDArray[np.float64]:
         s = np.asarray(path_positions, dtype=float)
         scalar = s.ndim == 0
@@ -213,7 +228,7 @@ class SubPath(AbstractGeometricPath):  # type: ignore[misc]
         return self.path(s + self.s0, order)
 
 
-class SplinePath(AbstractGeometricPath):  # type: ignore[misc]
+class SplinePath(_ArcLengthPath):
     """A cubic spline through dense ``waypoints`` (K, dof) parameterized by chord length: the
     path for samples of a smooth curve (a Cartesian line's IK solutions, say), which it follows
     through every sample, without the corners a polyline would have."""
@@ -221,11 +236,7 @@ class SplinePath(AbstractGeometricPath):  # type: ignore[misc]
     def __init__(self, waypoints: ArrayLike) -> None:
         from scipy.interpolate import CubicSpline
 
-        wp = np.asarray(waypoints, dtype=float)
-        if wp.ndim != 2 or wp.shape[0] < 2:
-            raise PlanningError(f"a path needs (K >= 2, dof) waypoints, got shape {wp.shape}")
-        keep = np.concatenate([[True], np.linalg.norm(np.diff(wp, axis=0), axis=1) > 1e-9])
-        wp = wp[keep]
+        wp = self._clean(waypoints)
         if wp.shape[0] < 2:
             wp = np.vstack([wp, wp + 1e-9])
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(wp, axis=0), axis=1))])
@@ -233,19 +244,7 @@ class SplinePath(AbstractGeometricPath):  # type: ignore[misc]
         self._dof = wp.shape[1]
         self._length = float(s[-1])
         self.breakpoints = s
-        self.stops: list[float] = []
-
-    @property
-    def dof(self) -> int:
-        return self._dof
-
-    @property
-    def path_interval(self) -> NDArray[np.float64]:
-        return np.array([0.0, self._length])
-
-    @property
-    def length(self) -> float:
-        return self._length
+        self.stops = []
 
     def __call__(self, path_positions: ArrayLike, order: int = 0) -> NDArray[np.float64]:
         s = np.clip(np.asarray(path_positions, dtype=float), 0.0, self._length)
@@ -258,9 +257,6 @@ class SplinePath(AbstractGeometricPath):  # type: ignore[misc]
         return np.unique(
             np.concatenate([self.breakpoints, mids, np.linspace(0, self._length, n + 1)])
         )
-
-    def split_at_stops(self) -> list[tuple[float, float]]:
-        return [(0.0, self._length)]
 
     def sample_states(self, resolution: float) -> NDArray[np.float64]:
         """Points at most ``resolution`` apart per joint (the spline's speed bounds the step)."""
