@@ -1,9 +1,9 @@
 """Sort the sorting cell's eight objects into their trays, by colour or by shape.
 
 For each object: grasp candidates from its shape and pose (from above when the wrist reaches
-over it, else from the side), pick with the first that works, then place it over its tray at
-the cell's place point for that tray, lowered onto the tray's floor (or released from the place
-point, as the seed exercise does, if the arm cannot reach that low there).
+over it, else from the side), pick with the first that works, then put it in its tray on a free
+spot the arm reaches: set down on the floor, else released just above the walls, else released
+from the cell's place point for that tray, as the seed exercise does.
 
     python examples/sort_cell.py [--by color|shape] [--layout K] [--mode physics|kinematic]
 """
@@ -11,11 +11,21 @@ point, as the seed exercise does, if the arm cannot reach that low there).
 from __future__ import annotations
 
 import argparse
+import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+
+import numpy as np
 
 from robocell.cell import Cell
-from robocell.grasping import generate_grasps, generate_places
+from robocell.geometry import Pose
+from robocell.grasping import (
+    Grasp,
+    PlaceLocation,
+    generate_grasps,
+    generate_places,
+    reachable_places,
+)
 from robocell.manipulation import Manipulator
 
 SHAPE_TRAY = {"box": "red", "sphere": "blue", "cylinder": "green"}  # the spec's decision
@@ -37,11 +47,35 @@ def tray_of(cell: Cell, name: str, by: str) -> str:
     return f"{SHAPE_TRAY[o.kind] if by == 'shape' else o.color_name}_tray"
 
 
-def in_tray(cell: Cell, name: str, tray: str) -> bool:
-    """At rest inside the tray's footprint, below its wall tops (the spec's success)."""
-    f = next(x for x in cell.spec.fixtures if x.name == tray)
-    p, c = cell.object_pose(name).position, f.pose.position
-    return abs(p[0] - c[0]) < 0.14 and abs(p[1] - c[1]) < 0.14 and p[2] < c[2] + 0.1
+def place_candidates(
+    hand: Manipulator, name: str, tray: str, grasp: Grasp, T_at_grasp: Pose, spots: int = 5
+) -> list[PlaceLocation]:
+    """Places in the tray on free spots (away from its walls and from what is already in it)
+    that the arm reaches, nearest the robot first and at least 5 cm apart, each at several
+    yaws: first set down on the floor, then released just above the walls (a gripper holding
+    an object from the side cannot go down between them)."""
+    cell = hand.cell
+    o = cell.spec.object(name)
+    top = cell.fixture_bounds(tray)[1][2]
+    radius = 0.5 * math.hypot(o.size[0], o.size[1])
+    free = cell.free_spots(tray, radius, near=cell.robot_spec.pose.position, clearance=0.02)
+    out: list[PlaceLocation] = []
+    for bottom in ("floor", "walls"):
+        chosen: list[np.ndarray] = []
+        for p in free:
+            if len(chosen) == spots:
+                break
+            if any(np.linalg.norm(p[:2] - c[:2]) < 0.05 for c in chosen):
+                continue
+            z = (p[2] if bottom == "floor" else top + 0.01) + 0.5 * o.size[2] + 0.005
+            places = generate_places(
+                name, (p[0], p[1], z), grasp, T_at_grasp, yaws_deg=tuple(range(0, 360, 45))
+            )
+            ok = reachable_places(places, cell.scene, hand.arm.get_name(), hand.geometry.eef_link)
+            if ok:
+                chosen.append(p)
+                out += ok
+    return [replace(loc, quality=1.0 - i / len(out)) for i, loc in enumerate(out)]
 
 
 def sort(cell: Cell, by: str = "color") -> list[Row]:
@@ -50,29 +84,34 @@ def sort(cell: Cell, by: str = "color") -> list[Row]:
     for o in cell.spec.objects:
         tray = tray_of(cell, o.name, by)
         T = cell.object_pose(o.name)
+        t0 = time.perf_counter()
         grasps = generate_grasps(o.name, o.shape, T, hand.geometry, cell.scene, "arm")
+        generating = time.perf_counter() - t0
         picked = hand.pick(o.name, grasps)
         if not picked.success:
-            rows.append(Row(o.name, tray, "-", picked.planning_time * 1e3, picked.robot_time,
+            rows.append(Row(o.name, tray, "-", (generating + picked.planning_time) * 1e3,
+                            picked.robot_time,
                             False, f"pick: {picked.reason}"))  # fmt: skip
             continue
         grasp = next(g for g in grasps if g.id == picked.candidate)
-        target = cell.target_position(tray.replace("tray", "target"), frame="world")
-        floor = next(f for f in cell.spec.fixtures if f.name == tray).pose.position[2] + 0.01
-        placed = None
-        for z in (floor + 0.5 * o.size[2] + 0.005, target[2]):  # on the floor, else from above
-            places = generate_places(o.name, [target[0], target[1], z], grasp, T,
-                                     yaws_deg=tuple(range(0, 360, 45)))  # fmt: skip
-            placed = hand.place(o.name, places, settle_tolerance=0.12)
-            if placed.success or o.name not in cell.scene.attached_objects:
-                break
+        t0 = time.perf_counter()
+        places = place_candidates(hand, o.name, tray, grasp, T)
+        generating += time.perf_counter() - t0
+        placed = hand.place(o.name, places, settle_tolerance=0.1)
+        if not placed.success and o.name in cell.scene.attached_objects:
+            # no spot in the tray worked: release where the seed does, the tool at the place
+            # point, the object hanging below it
+            target = cell.target_position(tray.replace("tray", "target"), frame="world")
+            target[2] -= float(np.linalg.norm(hand.geometry.T_eef_tcp[:3, 3]))
+            drop = generate_places(o.name, target, grasp, T, yaws_deg=tuple(range(0, 360, 45)))
+            placed = hand.place(o.name, drop, settle_tolerance=0.12)
         assert placed is not None
         if o.name in cell.scene.attached_objects:  # no place worked: let go, carry on
             hand.release(o.name)
-        ok = in_tray(cell, o.name, tray)
+        ok = cell.inside(o.name, tray)  # at rest: the place step settled it
         rows.append(
             Row(o.name, tray, grasp.id.split("/", 1)[1],
-                (picked.planning_time + placed.planning_time) * 1e3,
+                (generating + picked.planning_time + placed.planning_time) * 1e3,
                 picked.robot_time + placed.robot_time, ok,
                 "" if ok else f"place: {placed.reason or 'not in its tray'}")
         )  # fmt: skip

@@ -50,6 +50,10 @@ class GraspError(RobocellError):
     """A grasp or place request is malformed."""
 
 
+class ExerciseError(RobocellError):
+    """A user's exercise file cannot be run (missing, not Python, nothing to run)."""
+
+
 def choices(names: Iterable[str], limit: int = 30) -> str:
     """Format valid choices for an error message: ``'a, b, c'`` (sorted, at most ``limit``)."""
     items = sorted(names)

@@ -26,6 +26,15 @@ def main(argv: list[str] | None = None) -> int:
     demo.add_argument("--by", choices=["color", "shape"], default="color")
     demo.add_argument("--layout", type=int, default=0, help="0: the seed's; k > 0: randomized")
     demo.add_argument("--mode", choices=["physics", "kinematic"], default="physics")
+    runp = sub.add_parser("run", help="run an exercise file (HAL or myalgorithm style) on a cell")
+    runp.add_argument("file", help="the user's Python file")
+    runp.add_argument("--cell", default="sorting", help="bundled cell name or cell file path")
+    runp.add_argument("--layout", type=int, default=0, help="0: the seed's; k > 0: randomized")
+    runp.add_argument("--mode", choices=["physics", "kinematic"], default="physics")
+    runp.add_argument("--frequency", type=float, default=10.0, help="the loop's target [Hz]")
+    runp.add_argument("--max-time", type=float, help="end the while-True loop after [s]")
+    runp.add_argument("--iterations", type=int, help="end the while-True loop after N")
+    runp.add_argument("--gui-dir", help="where GUI.showImage saves images")
     bench = sub.add_parser("bench", help="run a benchmark and print its table")
     bench_sub = bench.add_subparsers(dest="bench", metavar="benchmark")
     bp = bench_sub.add_parser("planning", help="MotionBenchMaker problems (../shared/bench/mbm)")
@@ -47,6 +56,15 @@ def main(argv: list[str] | None = None) -> int:
             from robocell.apps.demo import run_demo
 
             return run_demo(args.by, args.layout, args.mode)
+        if args.command == "run":
+            from pathlib import Path
+
+            from robocell.exercise.runner import run_file
+
+            return run_file(
+                args.file, args.cell, args.layout, args.mode, args.frequency, args.max_time,
+                args.iterations, Path(args.gui_dir) if args.gui_dir else None,
+            ).exit_code  # fmt: skip
         if args.command == "bench" and args.bench == "planning":
             from robocell.apps.bench_planning import run
 

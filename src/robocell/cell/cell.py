@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from robocell.cell.cell_file import CellSpec, cell_path, load_cell_file
 from robocell.cell.move_group import MoveGroup
@@ -38,7 +38,8 @@ class Cell:
     """A work cell. ``mode``: "physics" (a MuJoCo world plays the robot) or "kinematic" (demo
     mode: the scene's robot follows trajectories exactly; objects do not move by themselves).
     ``realtime`` paces the physics to the wall clock (for viewing); ``time_scale`` sets the
-    kinematic controller's pace (0: at once)."""
+    kinematic controller's pace (0: at once); ``object_padding`` [m]: how far plans keep clear
+    of the free objects (see :meth:`PlanningScene.set_object_padding`)."""
 
     def __init__(
         self,
@@ -47,6 +48,7 @@ class Cell:
         mode: str = "physics",
         realtime: bool = False,
         time_scale: float = 1.0,
+        object_padding: float = 0.01,
     ) -> None:
         if mode not in MODES:
             raise CellError(f"unknown mode {mode!r}; known: {', '.join(MODES)}")
@@ -81,6 +83,10 @@ class Cell:
             self.scene.add_object(
                 CollisionObject(o.name, (o.shape,), (Pose(),), self._initial[o.name])
             )
+        # plans keep clear of the free objects, so that a path that grazes one in the plan
+        # does not knock it over in physics (MuJoCo collides the convex hulls of meshes)
+        for o in spec.objects:
+            self.scene.set_object_padding(o.name, object_padding)
         # what the robot stands on at its default state (its pedestal) may touch it
         for link, other in self.scene.colliding_pairs(self.robot.default_positions):
             fixture = other if other in [f.name for f in spec.fixtures] else link
@@ -108,6 +114,7 @@ class Cell:
         self.time_scale = time_scale
         self._controllers: dict[str, Controller] = {}
         self._groups: dict[str, MoveGroup] = {}
+        self._boxes: dict[str, list[NDArray[np.float64]]] = {}
 
     @classmethod
     def load(
@@ -150,6 +157,79 @@ class Cell:
         raise CellError(f"unknown target {name!r}; known: {choices(self.target_names)}")
 
     # ------------------------------------------------------------------ state
+    def _part_boxes(self, name: str) -> list[NDArray[np.float64]]:
+        """World-aligned boxes (2×3: min, max corners) around each part of a fixture [m]."""
+        from robocell.geometry.shapes import triangulate
+
+        if name not in self._boxes:
+            f = next((f for f in self.spec.fixtures if f.name == name), None)
+            if f is None:
+                known = choices(x.name for x in self.spec.fixtures)
+                raise CellError(f"unknown fixture {name!r}; known: {known}")
+            boxes = []
+            for part in f.parts:
+                v, _ = triangulate(part.shape, 16)
+                T = (f.pose * part.pose).matrix()
+                w = v @ T[:3, :3].T + T[:3, 3]
+                boxes.append(np.array([w.min(axis=0), w.max(axis=0)]))
+            self._boxes[name] = boxes
+        return self._boxes[name]
+
+    def fixture_bounds(self, name: str) -> NDArray[np.float64]:
+        """The world-aligned box (2×3: min, max corners) around a fixture's parts [m]."""
+        boxes = np.array(self._part_boxes(name))
+        return np.array([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])
+
+    def inside(self, name: str, fixture: str) -> bool:
+        """Whether the object's centre lies within the fixture's bounds: inside a tray's
+        footprint and below its wall tops (the sorting spec's success, without "at rest")."""
+        lo, hi = self.fixture_bounds(fixture)
+        p = self.object_pose(name).position
+        return bool(np.all(p >= lo) and np.all(p <= hi))
+
+    def container_of(self, name: str) -> str | None:
+        """The fixture the object is inside (a tray), if any."""
+        for f in self.spec.fixtures:
+            if self.inside(name, f.name):
+                return f.name
+        return None
+
+    def free_spots(
+        self,
+        fixture: str,
+        radius: float,
+        near: ArrayLike | None = None,
+        clearance: float = 0.01,
+        step: float = 0.02,
+    ) -> NDArray[np.float64]:
+        """Where an object of footprint ``radius`` [m] fits on a fixture's floor (a tray's):
+        points (N×3, world; z on the floor's top) on a grid of ``step``, at least ``clearance``
+        from the fixture's walls (its parts that rise above the floor) and from every object
+        there now, nearest to ``near`` (xy) first (default: the fixture's centre)."""
+        lo, hi = self.fixture_bounds(fixture)
+        boxes = self._part_boxes(fixture)
+        floor = min(b[1][2] for b in boxes)
+        walls = [b for b in boxes if b[1][2] > floor + 1e-3]
+        xs = np.arange(lo[0], hi[0] + 1e-9, step)
+        ys = np.arange(lo[1], hi[1] + 1e-9, step)
+        P = np.stack(np.meshgrid(xs, ys, indexing="ij"), -1).reshape(-1, 2)
+        keep = np.ones(len(P), dtype=bool)
+        for b_lo, b_hi in walls:
+            d = np.linalg.norm(np.maximum(0.0, np.maximum(b_lo[:2] - P, P - b_hi[:2])), axis=1)
+            keep &= d >= radius + clearance
+        for o in self.spec.objects:
+            if o.name in self.scene.attached_objects:
+                continue
+            c = self.object_pose(o.name).position
+            if not (lo[2] - 0.05 <= c[2] <= hi[2] + 0.2):
+                continue
+            r_o = 0.5 * math.hypot(o.size[0], o.size[1])
+            keep &= np.linalg.norm(P - c[:2], axis=1) >= radius + r_o + clearance
+        P = P[keep]
+        ref = 0.5 * (lo + hi) if near is None else np.asarray(near, dtype=float)
+        P = P[np.argsort(np.linalg.norm(P - ref[:2], axis=1), kind="stable")]
+        return np.column_stack([P, np.full(len(P), floor)])
+
     def object_pose(self, name: str) -> Pose:
         """An object's pose in the world frame: the world's ground truth in physics mode, the
         scene's in kinematic mode (held objects follow the gripper)."""

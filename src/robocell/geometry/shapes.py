@@ -243,3 +243,17 @@ def triangulate(shape: Shape, segments: int = 24) -> tuple[NDArray[np.float64], 
         inradius = np.linalg.norm(v[f[0]].mean(axis=0))
         return v * shape.radius / inradius, f.astype(np.int64)
     raise GeometryError(f"unknown shape {shape!r}; known kinds: {', '.join(SHAPE_KINDS)}")
+
+
+def padded(shape: Shape, padding: float) -> Shape:
+    """A primitive grown by ``padding`` [m] on every side (a box's size by 2·padding, a
+    cylinder's radius by padding and length by 2·padding, a sphere's radius by padding)."""
+    if padding == 0:
+        return shape
+    if isinstance(shape, Box):
+        return Box(tuple(v + 2 * padding for v in shape.size))  # type: ignore[arg-type]
+    if isinstance(shape, Cylinder):
+        return Cylinder(shape.radius + padding, shape.length + 2 * padding)
+    if isinstance(shape, Sphere):
+        return Sphere(shape.radius + padding)
+    raise GeometryError(f"only boxes, cylinders and spheres can be padded, not a {shape.kind}")

@@ -1,7 +1,7 @@
 """Grasps and place locations (MoveIt's records), gripper geometry from the robot description,
 and candidate generators for boxes, cylinders and spheres."""
 
-from robocell.grasping.generators import generate_grasps, generate_places
+from robocell.grasping.generators import generate_grasps, generate_places, reachable_places
 from robocell.grasping.grasp import Grasp, GripperGeometry, GripperTranslation, PlaceLocation
 
 __all__ = [
@@ -11,4 +11,5 @@ __all__ = [
     "PlaceLocation",
     "generate_grasps",
     "generate_places",
+    "reachable_places",
 ]

@@ -166,6 +166,7 @@ def _reachable(
     work = scene.copy()
     if object_id in work.world_objects:
         work.allow_collision(object_id, links)
+        work.set_object_padding(object_id, 0.0)  # the gripper goes right up to it
     checker = work.checker(group)
     T_base_world = np.linalg.inv(work.link_pose(group.base_link).matrix())
     seed = work.state.group_positions(group)
@@ -219,6 +220,28 @@ def generate_places(
             )
         )
     return out
+
+
+def reachable_places(
+    places: list[PlaceLocation], scene: PlanningScene, arm: str, eef_link: str
+) -> list[PlaceLocation]:
+    """The places whose pose and pre-place pose (at the approach's min distance) the arm
+    reaches without collision, with the held object attached as the scene has it; order
+    kept."""
+    group = scene.robot.group(arm)
+    checker = scene.checker(group)
+    T_base_world = np.linalg.inv(scene.link_pose(group.base_link).matrix())
+    kept = []
+    for loc in places:
+        pre = loc.pose.matrix().copy()
+        pre[:3, 3] -= loc.pre_place_approach.vector(loc.pre_place_approach.min_distance)
+        if all(
+            solve_ik(group, T_base_world @ T, checker=checker, tip_link=eef_link,
+                     max_solutions=1, timeout=0.02).success
+            for T in (loc.pose.matrix(), pre)
+        ):  # fmt: skip
+            kept.append(loc)
+    return kept
 
 
 def _rz(a: float) -> NDArray[np.float64]:

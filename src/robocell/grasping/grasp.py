@@ -109,6 +109,12 @@ class GripperGeometry:
         f = (self.open_width - width) / (self.open_width - self.closed_width)
         return self.open_command + f * (self.closed_command - self.open_command)
 
+    def width_at(self, command: float) -> float:
+        """The fingers' opening [m] at gripper ``command`` (linear; the inverse of
+        :meth:`command_for`)."""
+        f = (command - self.open_command) / (self.closed_command - self.open_command)
+        return self.open_width + f * (self.closed_width - self.open_width)
+
     @classmethod
     def from_robot(
         cls,

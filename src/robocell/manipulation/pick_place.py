@@ -10,6 +10,7 @@ candidate starts from a clean state (gripper open, nothing half-attached).
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -56,8 +57,14 @@ class _Failed(Exception):
         self.stage, self.reason = stage, reason
 
 
+class _Stopped(_Failed):
+    def __init__(self) -> None:
+        super().__init__("stopped", "stopped by the user")
+
+
 class Manipulator:
-    """Pick and place for the cell's arm and gripper."""
+    """Pick and place for the cell's arm and gripper. :meth:`stop` (from another thread) ends
+    the running pick or place at its next stage, with the robot held where it is."""
 
     def __init__(self, cell: Cell, planning_time: float = 1.0) -> None:
         self.cell = cell
@@ -77,9 +84,26 @@ class Manipulator:
         self.finger_links = cell.robot.group(spec.gripper).link_names
         self._plan_s = 0.0
         self._robot_s = 0.0
+        self._stop = threading.Event()
+
+    def stop(self) -> None:
+        """Stop the arm and the gripper now and end the running pick or place (it fails with
+        stage "stopped"); the next call starts afresh."""
+        self._stop.set()
+        self.arm.stop()
+        self.gripper.stop()
+
+    def _check_stop(self) -> None:
+        if self._stop.is_set():
+            raise _Stopped()
 
     # ------------------------------------------------------------------ helpers
-    def _set_gripper(self, command: float) -> None:
+    def _gripper(self, command: float) -> None:
+        self._check_stop()
+        self.set_gripper(command)
+
+    def set_gripper(self, command: float) -> None:
+        """Move the gripper to ``command`` (blocking) and let the fingers settle."""
         g = self.gripper.group
         now = self.gripper.get_current_joint_values()
         traj = ptp(g, np.clip(now, g.lower, g.upper), [command])
@@ -91,9 +115,10 @@ class Manipulator:
             self.cell.scene.state.set_group_positions(g, [command])
 
     def _move_to(self, pose: Pose) -> None:
+        self._check_stop()
         self.arm.set_pose_target(pose)
         t = time.perf_counter()
-        plan = self.arm.plan()
+        plan = self.arm.plan(fix_start=True)  # fingers may rest against what they let go
         self._plan_s += time.perf_counter() - t
         if not plan.success or plan.trajectory is None:
             raise _Failed("move", plan.reason or "no plan")
@@ -110,6 +135,8 @@ class Manipulator:
             try:
                 self._move_to(pre)
                 return dist
+            except _Stopped:
+                raise
             except _Failed as f:
                 tried.append(f"{dist:.3f} m back: {f.reason}")
             except RobocellError as exc:
@@ -117,6 +144,7 @@ class Manipulator:
         raise _Failed("move", "; ".join(tried))
 
     def _line(self, stage: str, offset: np.ndarray, min_distance: float) -> None:
+        self._check_stop()
         t = time.perf_counter()
         T = self.arm.get_current_pose()
         target = Pose(T.position + offset, T.orientation)
@@ -129,17 +157,20 @@ class Manipulator:
             raise _Failed(stage, "execution failed")
         self._robot_s += cp.trajectory.duration
 
-    def _supports(self, name: str) -> list[str]:
-        """What the object rests on or touches now, in the scene (not the gripper)."""
+    def _retreat(self, offset: np.ndarray, min_distance: float, name: str) -> None:
+        """The straight retreat, with the contacts the gripper and the object have at its start
+        allowed for its duration: the surface the object leaves, the tray wall or the
+        neighbour a finger rests against after letting go."""
         scene = self.cell.scene
-        pairs = scene.colliding_pairs()
-        out = set()
-        for a, b in pairs:
-            if name in (a, b):
-                other = b if a == name else a
-                if other not in self.finger_links:
-                    out.add(other)
-        return sorted(out)
+        ours = {name, *self.finger_links}
+        touching = [(a, b) for a, b in scene.colliding_pairs() if a in ours or b in ours]
+        for a, b in touching:
+            scene.allow_collision(a, b)
+        try:
+            self._line("retreat", offset, min_distance)
+        finally:
+            for a, b in touching:
+                scene.allow_collision(a, b, False)
 
     # ------------------------------------------------------------------ pick
     def pick(self, name: str, grasps: list[Grasp]) -> ManipulationResult:
@@ -150,51 +181,14 @@ class Manipulator:
         if not grasps:
             return ManipulationResult(False, reason=f"no grasp candidates for {name!r}")
         self._plan_s = self._robot_s = 0.0
+        self._stop.clear()
         result = ManipulationResult(False)
-        for g in sorted(grasps, key=lambda x: -x.quality):
-            try:
-                cell.sync_scene()
-                self._set_gripper(g.pre_grasp_posture)
-                result.stages.append(StageResult(g.id, "open", True))
-                dist = self._move_to_pre(g.pose, g.pre_grasp_approach)
-                result.stages.append(StageResult(g.id, "move", True))
-                scene.allow_collision(name, self.finger_links)
-                self._line(
-                    "approach", g.pre_grasp_approach.vector(dist), g.pre_grasp_approach.min_distance
-                )
-                result.stages.append(StageResult(g.id, "approach", True))
-                self._set_gripper(g.grasp_posture)
-                if cell.world is not None and not cell.is_grasped(name):
-                    raise _Failed("close", "the fingers closed but do not hold the object")
-                result.stages.append(StageResult(g.id, "close", True))
-                cell.sync_scene()
-                self.arm.attach_object(name, touch_links=self.finger_links)
-                supports = self._supports(name)  # held, it is checked against the world
-                for s in supports:  # leaving the surface it rests on
-                    scene.allow_collision(name, s)
-                before = cell.held_offset(name) if cell.world is not None else None
-                try:
-                    self._line(
-                        "retreat", g.post_grasp_retreat.vector(), g.post_grasp_retreat.min_distance
-                    )
-                finally:
-                    for s in supports:
-                        scene.allow_collision(name, s, False)
-                if cell.world is not None:
-                    if not cell.is_grasped(name):
-                        raise _Failed("retreat", "the object dropped out of the gripper")
-                    assert before is not None
-                    if cell.has_slipped(name, before, 0.01):
-                        raise _Failed("retreat", "the object slipped in the gripper")
-                result.stages.append(StageResult(g.id, "retreat", True))
-                result.success, result.candidate = True, g.id
-                break
-            except _Failed as f:
-                result.stages.append(StageResult(g.id, f.stage, False, f.reason))
-                self._recover(name)
-            except RobocellError as exc:
-                result.stages.append(StageResult(g.id, "plan", False, str(exc)))
-                self._recover(name)
+        padding = scene.object_padding(name)
+        scene.set_object_padding(name, 0.0)  # the gripper goes right up to it
+        try:
+            self._pick(name, grasps, result)
+        finally:
+            scene.set_object_padding(name, padding)
         if not result.success:
             last = result.failures()[-1] if result.failures() else None
             result.reason = (
@@ -206,23 +200,80 @@ class Manipulator:
         result.planning_time, result.robot_time = self._plan_s, self._robot_s
         return result
 
+    def _pick(self, name: str, grasps: list[Grasp], result: ManipulationResult) -> None:
+        cell, scene = self.cell, self.cell.scene
+        for g in sorted(grasps, key=lambda x: -x.quality):
+            try:
+                cell.sync_scene()
+                self._gripper(g.pre_grasp_posture)
+                result.stages.append(StageResult(g.id, "open", True))
+                dist = self._move_to_pre(g.pose, g.pre_grasp_approach)
+                result.stages.append(StageResult(g.id, "move", True))
+                scene.allow_collision(name, self.finger_links)
+                self._line(
+                    "approach", g.pre_grasp_approach.vector(dist), g.pre_grasp_approach.min_distance
+                )
+                result.stages.append(StageResult(g.id, "approach", True))
+                self._gripper(g.grasp_posture)
+                if cell.world is not None and not cell.is_grasped(name):
+                    raise _Failed("close", "the fingers closed but do not hold the object")
+                result.stages.append(StageResult(g.id, "close", True))
+                cell.sync_scene()
+                self.arm.attach_object(name, touch_links=self.finger_links)
+                before = cell.held_offset(name) if cell.world is not None else None
+                self._retreat(
+                    g.post_grasp_retreat.vector(), g.post_grasp_retreat.min_distance, name
+                )
+                if cell.world is not None:
+                    if not cell.is_grasped(name):
+                        raise _Failed("retreat", "the object dropped out of the gripper")
+                    assert before is not None
+                    if cell.has_slipped(name, before, 0.01):
+                        raise _Failed("retreat", "the object slipped in the gripper")
+                result.stages.append(StageResult(g.id, "retreat", True))
+                result.success, result.candidate = True, g.id
+                break
+            except _Stopped as f:
+                result.stages.append(StageResult(g.id, f.stage, False, f.reason))
+                self._after_stop(name)
+                break
+            except _Failed as f:
+                result.stages.append(StageResult(g.id, f.stage, False, f.reason))
+                self._recover(name)
+            except RobocellError as exc:
+                result.stages.append(StageResult(g.id, "plan", False, str(exc)))
+                self._recover(name)
+
     def release(self, name: str) -> None:
         """Let go of a held object where it is (open the gripper, detach it): after a place
         that failed, so that the next pick starts with an empty hand."""
         if name not in self.cell.scene.attached_objects:
             raise GraspError(f"object {name!r} is not held")
-        self._set_gripper(self.geometry.open_command)
+        self._stop.clear()
+        self.set_gripper(self.geometry.open_command)
         self.cell.scene.detach_object(name)
         if self.cell.world is None:
             self.cell.drop(name)
         self.cell.sync_scene()
+
+    def _after_stop(self, name: str) -> None:
+        """After a stop: the robot holds where it is; the scene keeps the object attached only
+        if it is really in the gripper."""
+        scene = self.cell.scene
+        held = name in scene.attached_objects
+        if held and self.cell.world is not None and not self.cell.is_grasped(name):
+            scene.detach_object(name)
+            held = False
+        self.cell.sync_scene()
+        if not held:
+            scene.allow_collision(name, self.finger_links, False)
 
     def _recover(self, name: str) -> None:
         """After a failed candidate: open the gripper, drop the object from the scene's hand,
         forbid the touches allowed for the attempt."""
         scene = self.cell.scene
         try:
-            self._set_gripper(self.geometry.open_command)
+            self.set_gripper(self.geometry.open_command)
         except RobocellError:
             pass
         if name in scene.attached_objects:
@@ -242,6 +293,7 @@ class Manipulator:
                 f"object {name!r} is not held; held: {', '.join(scene.attached_objects) or 'none'}"
             )
         self._plan_s = self._robot_s = 0.0
+        self._stop.clear()
         result = ManipulationResult(False)
         for loc in sorted(locations, key=lambda x: -x.quality):
             try:
@@ -253,7 +305,7 @@ class Manipulator:
                     loc.pre_place_approach.min_distance,
                 )
                 result.stages.append(StageResult(loc.id, "approach", True))
-                self._set_gripper(loc.post_place_posture)
+                self._gripper(loc.post_place_posture)
                 cell.sync_scene()
                 scene.detach_object(name)
                 if cell.world is None:
@@ -262,10 +314,8 @@ class Manipulator:
                 result.stages.append(StageResult(loc.id, "release", True))
                 scene.allow_collision(name, self.finger_links)
                 try:
-                    self._line(
-                        "retreat",
-                        loc.post_place_retreat.vector(),
-                        loc.post_place_retreat.min_distance,
+                    self._retreat(
+                        loc.post_place_retreat.vector(), loc.post_place_retreat.min_distance, name
                     )
                 finally:
                     scene.allow_collision(name, self.finger_links, False)
@@ -291,6 +341,9 @@ class Manipulator:
                 break
             except _Failed as f:
                 result.stages.append(StageResult(loc.id, f.stage, False, f.reason))
+                if isinstance(f, _Stopped):
+                    self._after_stop(name)
+                    break
                 if name not in scene.attached_objects:
                     break  # released: no other location can be tried with it
             except RobocellError as exc:

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robocell.errors import SceneError
-from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere
+from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere, padded
 from robocell.kinematics.fk import tree_args
 from robocell.robot.model import JointGroup, RobotModel
 from robocell.scene import _kernels as K
@@ -165,8 +165,10 @@ class CollisionChecker:
         self.bodies = bodies
         T_root_world = scene.T_root_world
         obstacles: list[Obstacle] = []
+        self._padding = {o: scene.object_padding(o) for o in scene.world_objects}
         for obj in scene.world_objects.values():
             for shape, T in zip(obj.shapes, obj.shape_matrices(), strict=True):
+                shape = padded(shape, self._padding[obj.id])
                 obstacles.append(obstacle_of(obj.id, shape, T_root_world @ T))
         self.obstacles = obstacles
         self._world_objects = list(scene.world_objects.values())
@@ -328,8 +330,9 @@ class CollisionChecker:
         for obj in self._world_objects:
             for k, (shape, T) in enumerate(zip(obj.shapes, obj.shape_matrices(), strict=True)):
                 go = pin.GeometryObject(
-                    f"{obj.id}#{k}", 0, 0, pin.SE3(self._T_root_world @ T), coal_geometry(shape)
-                )
+                    f"{obj.id}#{k}", 0, 0, pin.SE3(self._T_root_world @ T),
+                    coal_geometry(padded(shape, self._padding[obj.id])),
+                )  # fmt: skip
                 obs_geoms.append(gm.addGeometryObject(go))
         self._geoms_of, self._obs_geoms = geoms_of, obs_geoms
         self._add_pairs(gm, self.world_pairs, self.self_pairs)

@@ -8,6 +8,7 @@ state. Every operation validates everything first and changes nothing when it fa
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -46,6 +47,7 @@ class PlanningScene:
         self.acm = AllowedCollisionMatrix(robot.disabled_collisions)
         self._version = 0
         self._checkers: dict[tuple[object, ...], CollisionChecker] = {}
+        self._padding: dict[str, float] = {}
 
     # ------------------------------------------------------------------ frames and state
     @property
@@ -101,6 +103,31 @@ class PlanningScene:
             raise SceneError(f"object id {obj.id!r} is the name of a robot link; choose another")
         self._world[obj.id] = obj
         self._changed()
+
+    def set_object_padding(self, id: str, padding: float) -> None:
+        """Plan ``padding`` [m] clear of a world object: its shapes count grown by that much
+        (boxes, cylinders and spheres) in every collision check, so that a path that grazes
+        it in the plan does not knock it over in the world. 0 removes the padding."""
+        if id not in self._world and id not in self._attached:
+            raise SceneError(unknown("object", id, [*self._world, *self._attached]))
+        p = float(padding)
+        if not (math.isfinite(p) and p >= 0):
+            raise SceneError(f"padding must be >= 0 [m], got {padding!r}")
+        obj = self._world.get(id) or self._attached[id].object
+        for shape in obj.shapes:
+            if p and not isinstance(shape, Box | Cylinder | Sphere):
+                raise SceneError(
+                    f"object {id!r}: only primitives can be padded, not a {shape.kind}"
+                )
+        if p:
+            self._padding[id] = p
+        else:
+            self._padding.pop(id, None)
+        self._changed()
+
+    def object_padding(self, id: str) -> float:
+        """The padding [m] of a world object (0 if none)."""
+        return self._padding.get(id, 0.0)
 
     def add_shape(
         self, id: str, shape: Shape, pose: Pose | ArrayLike | None = None
@@ -303,6 +330,7 @@ class PlanningScene:
         other._attached = dict(self._attached)
         other.acm = self.acm.copy()
         other._checkers = {}
+        other._padding = dict(self._padding)
         if hasattr(other, "_whole"):
             del other._whole
         return other
