@@ -78,44 +78,60 @@ def place_candidates(
     return [replace(loc, quality=1.0 - i / len(out)) for i, loc in enumerate(out)]
 
 
-def sort(cell: Cell, by: str = "color") -> list[Row]:
+def sort(cell: Cell, by: str = "color", attempts: int = 3) -> list[Row]:
+    """Sort every object into its tray; an object that is not in its tray after a pick and
+    place (it slipped, dropped, rolled off) is picked again from where it lies, up to
+    ``attempts`` times."""
     hand = Manipulator(cell)
     rows = []
     for o in cell.spec.objects:
         tray = tray_of(cell, o.name, by)
-        T = cell.object_pose(o.name)
-        t0 = time.perf_counter()
-        grasps = generate_grasps(o.name, o.shape, T, hand.geometry, cell.scene, "arm")
-        generating = time.perf_counter() - t0
-        picked = hand.pick(o.name, grasps)
-        if not picked.success:
-            rows.append(Row(o.name, tray, "-", (generating + picked.planning_time) * 1e3,
-                            picked.robot_time,
-                            False, f"pick: {picked.reason}"))  # fmt: skip
-            continue
-        grasp = next(g for g in grasps if g.id == picked.candidate)
-        t0 = time.perf_counter()
-        places = place_candidates(hand, o.name, tray, grasp, T)
-        generating += time.perf_counter() - t0
-        placed = hand.place(o.name, places, settle_tolerance=0.1)
-        if not placed.success and o.name in cell.scene.attached_objects:
-            # no spot in the tray worked: release where the seed does, the tool at the place
-            # point, the object hanging below it
-            target = cell.target_position(tray.replace("tray", "target"), frame="world")
-            target[2] -= float(np.linalg.norm(hand.geometry.T_eef_tcp[:3, 3]))
-            drop = generate_places(o.name, target, grasp, T, yaws_deg=tuple(range(0, 360, 45)))
-            placed = hand.place(o.name, drop, settle_tolerance=0.12)
-        assert placed is not None
-        if o.name in cell.scene.attached_objects:  # no place worked: let go, carry on
-            hand.release(o.name)
-        ok = cell.inside(o.name, tray)  # at rest: the place step settled it
-        rows.append(
-            Row(o.name, tray, grasp.id.split("/", 1)[1],
-                (generating + picked.planning_time + placed.planning_time) * 1e3,
-                picked.robot_time + placed.robot_time, ok,
-                "" if ok else f"place: {placed.reason or 'not in its tray'}")
-        )  # fmt: skip
+        row = Row(o.name, tray, "-", 0.0, 0.0, False)
+        for _ in range(attempts):
+            note = sort_one(cell, hand, o.name, tray, row)
+            row.in_tray = cell.inside(o.name, tray)  # at rest: the place step settled it
+            row.note = "" if row.in_tray else note or "place: not in its tray"
+            if row.in_tray or note.startswith("pick: no grasp"):
+                break
+        rows.append(row)
     return rows
+
+
+def sort_one(cell: Cell, hand: Manipulator, name: str, tray: str, row: Row) -> str:
+    """One pick and place of ``name`` into ``tray``; adds its times to ``row``; returns why it
+    failed ("" if it did not)."""
+    o = cell.spec.object(name)
+    T = cell.object_pose(name)
+    t0 = time.perf_counter()
+    grasps = generate_grasps(name, o.shape, T, hand.geometry, cell.scene, "arm")
+    row.planning_ms += (time.perf_counter() - t0) * 1e3
+    if not grasps:
+        return f"pick: no grasp candidates for {name!r}"
+    picked = hand.pick(name, grasps)
+    row.planning_ms += picked.planning_time * 1e3
+    row.robot_s += picked.robot_time
+    if not picked.success:
+        return f"pick: {picked.reason}"
+    grasp = next(g for g in grasps if g.id == picked.candidate)
+    row.grasp = grasp.id.split("/", 1)[1]
+    t0 = time.perf_counter()
+    places = place_candidates(hand, name, tray, grasp, T)
+    row.planning_ms += (time.perf_counter() - t0) * 1e3
+    placed = hand.place(name, places, settle_tolerance=0.1)
+    if not placed.success and name in cell.scene.attached_objects:
+        # no spot in the tray worked: release where the seed does, the tool at the place
+        # point, the object hanging below it
+        target = cell.target_position(tray.replace("tray", "target"), frame="world")
+        target[2] -= float(np.linalg.norm(hand.geometry.T_eef_tcp[:3, 3]))
+        drop = generate_places(name, target, grasp, T, yaws_deg=tuple(range(0, 360, 45)))
+        row.planning_ms += placed.planning_time * 1e3
+        row.robot_s += placed.robot_time
+        placed = hand.place(name, drop, settle_tolerance=0.12)
+    row.planning_ms += placed.planning_time * 1e3
+    row.robot_s += placed.robot_time
+    if name in cell.scene.attached_objects:  # no place worked: let go, carry on
+        hand.release(name)
+    return "" if placed.success else f"place: {placed.reason}"
 
 
 def main() -> int:

@@ -67,7 +67,7 @@ def generate_grasps(
     scene: PlanningScene | None = None,
     arm: str | None = None,
     yaw_step_deg: float = 15.0,
-    tilts_deg: tuple[float, ...] = (0.0, 20.0, 40.0, 60.0),
+    tilts_deg: tuple[float, ...] = (0.0, 20.0, 40.0, 50.0, 60.0, 70.0),
     clearance: float = 0.004,
     approach_distance: tuple[float, float] = (0.05, 0.1),
     retreat_distance: tuple[float, float] = (0.05, 0.1),
@@ -140,10 +140,13 @@ def generate_grasps(
                 face = abs(math.cos(2 * math.atan2(closing @ y_o, closing @ x_o)))
             # tcp at the centre, raised until the gripper clears the support (as long as it
             # stays below the top, where the fingers would grip nothing)
-            lift = max(0.0, bottom + gripper.body_half_height * math.cos(tilt) + 0.003 - c_o[2])
+            below = gripper.lowest(_frame(approach, closing, gripper))
+            lift = max(0.0, bottom + below + 0.003 - c_o[2])
             tcp = c_o + np.array([0.0, 0.0, lift])
             if tcp[2] > top - 0.005:
                 continue
+            if isinstance(shape, Sphere) and lift * math.cos(tilt) > 0.5 * gripper.pad_width - 0.003:
+                continue  # a sphere is pinched at its equator: it must lie across the pads
             # back off along the approach until the gripper's body clears the object's near part
             half = 0.5 * _extent(shape, R_o.T @ approach)
             tcp = tcp - approach * max(0.0, half - (gripper.body_clearance - 0.005))

@@ -103,6 +103,15 @@ class GripperGeometry:
     body_clearance: float
     finger_reach: float = 0.0
     body_half_height: float = 0.0
+    points: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)), compare=False)
+    pad_width: float = 0.0
+
+    def lowest(self, R_world_eef: NDArray[np.float64]) -> float:
+        """How far [m] the open gripper reaches below its tcp when turned by ``R_world_eef``
+        (from the vertices of its collision shapes; ``body_half_height`` if it has none)."""
+        if len(self.points) == 0:
+            return self.body_half_height
+        return float(-(self.points @ R_world_eef[2]).min())
 
     def command_for(self, width: float) -> float:
         """The gripper command at which the fingers are ``width`` [m] apart (linear)."""
@@ -214,9 +223,11 @@ class GripperGeometry:
         if w_lo < w_hi and open_command is None and closed_command is None:
             lo, hi, w_lo, w_hi = hi, lo, w_hi, w_lo  # the upper limit opens this gripper
         third = np.cross(approach, closing)
+        fingers = np.vstack(vertices(T_open, moving))
         everything = np.vstack(body + vertices(T_open, moving)) if body else np.zeros((1, 3))
         return cls(
             eef, tcp, gripper_group, T_eef_tcp, approach, closing, lo, hi, w_lo, w_hi,
             float(pads.max() - pads.min()), clearance, float(pads.max()),
-            float(np.abs(everything @ third).max()),
+            float(np.abs(everything @ third).max()), everything,
+            float(np.ptp(fingers @ third)),
         )  # fmt: skip

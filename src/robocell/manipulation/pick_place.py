@@ -298,6 +298,10 @@ class Manipulator:
         for loc in sorted(locations, key=lambda x: -x.quality):
             try:
                 dist = self._move_to_pre(loc.pose, loc.pre_place_approach)
+                if cell.world is not None and not cell.is_grasped(name):
+                    scene.detach_object(name)  # it lies where it fell: nothing is held
+                    cell.sync_scene()
+                    raise _Failed("move", "the object dropped out of the gripper on the way")
                 result.stages.append(StageResult(loc.id, "move", True))
                 self._line(
                     "approach",
