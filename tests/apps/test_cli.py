@@ -20,3 +20,12 @@ def test_demo_sorts_layout_0_in_physics(capsys):
     out = capsys.readouterr().out
     assert "8/8 objects in their trays" in out
     assert out.count("in its tray") == 8
+
+
+def test_demo_sorts_layout_0_in_kinematic_mode_by_shape(capsys):
+    """Demo mode (no physics): the same solution puts every object in its shape's tray."""
+    assert main(["demo", "--mode", "kinematic", "--by", "shape"]) == 0
+    out = capsys.readouterr().out
+    assert "8/8 objects in their trays" in out
+    for name in ("yellow_box", "red_box", "blue_box"):
+        assert any(line.startswith(name) and "red_tray" in line for line in out.splitlines())

@@ -12,13 +12,6 @@ from robocell.grasping.grasp import Grasp
 from robocell.manipulation import Manipulator
 
 
-def _in_tray(cell, name, tray):
-    f = next(x for x in cell.spec.fixtures if x.name == tray)
-    p = cell.object_pose(name).position
-    c = f.pose.position
-    return abs(p[0] - c[0]) < 0.14 and abs(p[1] - c[1]) < 0.14 and p[2] < c[2] + 0.1
-
-
 @pytest.mark.parametrize("mode", ["physics", "kinematic"])
 @pytest.mark.parametrize("name, tray", [("red_box", "red_tray"), ("blue_ball", "blue_tray")])
 def test_pick_and_place_into_the_tray(mode, name, tray):
@@ -41,7 +34,7 @@ def test_pick_and_place_into_the_tray(mode, name, tray):
     placed = man.place(name, generate_places(name, [target[0], target[1], z], g, T))
     assert placed.success, placed.reason
     assert name not in cell.scene.attached_objects
-    assert _in_tray(cell, name, tray)
+    assert cell.inside(name, tray)
     assert picked.robot_time > 0 and placed.robot_time > 0
 
 

@@ -21,7 +21,8 @@ from robocell.errors import GraspError
 from robocell.geometry.pose import Pose
 from robocell.geometry.shapes import Box, Cylinder, Shape, Sphere
 from robocell.grasping.grasp import Grasp, GripperGeometry, GripperTranslation, PlaceLocation
-from robocell.kinematics.ik import solve_ik
+from robocell.kinematics.ik import NumericIK, ik_solver, solve_ik
+from robocell.robot.model import JointGroup
 from robocell.scene.planning_scene import PlanningScene
 
 
@@ -145,7 +146,10 @@ def generate_grasps(
             tcp = c_o + np.array([0.0, 0.0, lift])
             if tcp[2] > top - 0.005:
                 continue
-            if isinstance(shape, Sphere) and lift * math.cos(tilt) > 0.5 * gripper.pad_width - 0.003:
+            if (
+                isinstance(shape, Sphere)
+                and lift * math.cos(tilt) > 0.5 * gripper.pad_width - 0.003
+            ):
                 continue  # a sphere is pinched at its equator: it must lie across the pads
             # back off along the approach until the gripper's body clears the object's near part
             half = 0.5 * _extent(shape, R_o.T @ approach)
@@ -163,27 +167,40 @@ def _reachable(
     grasps: list[Grasp], scene: PlanningScene, arm: str, gripper: GripperGeometry, object_id: str
 ) -> list[Grasp]:
     """The grasps whose pose the arm reaches without collision (the object may touch the
-    gripper's links), each with its IK solution nearest the current state."""
+    gripper's links), each with its IK solution nearest the current state. Every IK solution
+    of every grasp is collision-checked in one batch."""
     group = scene.robot.group(arm)
     links = scene.robot.group(gripper.group).link_names
     work = scene.copy()
     if object_id in work.world_objects:
         work.allow_collision(object_id, links)
         work.set_object_padding(object_id, 0.0)  # the gripper goes right up to it
-    checker = work.checker(group)
     T_base_world = np.linalg.inv(work.link_pose(group.base_link).matrix())
     seed = work.state.group_positions(group)
-    kept = []
-    for g in grasps:
+    owner: list[int] = []
+    solutions = []
+    # an analytic solver gives every solution: check them all in one batch; a numeric one
+    # checks inside, retrying until a collision-free one
+    inner = None if _analytic(group, gripper.eef_link) else work.checker(group)
+    for i, g in enumerate(grasps):
         res = solve_ik(
-            group, T_base_world @ g.pose.matrix(), seed=seed, checker=checker,
-            tip_link=gripper.eef_link, max_solutions=1, timeout=0.02,
+            group, T_base_world @ g.pose.matrix(), seed=seed, checker=inner,
+            tip_link=gripper.eef_link, timeout=0.02,
         )  # fmt: skip
-        if res.success:
-            kept.append(
-                Grasp(**{**g.__dict__, "joint_positions": res.solutions[0]})  # type: ignore[arg-type]
-            )
-    return kept
+        solutions.append(res.solutions)  # nearest the seed first
+        owner += [i] * len(res.solutions)
+    if not owner:
+        return []
+    Q = np.vstack(solutions)
+    free = ~work.checker(group).check(Q)
+    first: dict[int, int] = {}
+    for row in np.flatnonzero(free):
+        first.setdefault(owner[row], int(row))
+    return [
+        Grasp(**{**g.__dict__, "joint_positions": Q[first[i]]})  # type: ignore[arg-type]
+        for i, g in enumerate(grasps)
+        if i in first
+    ]
 
 
 def generate_places(
@@ -230,21 +247,30 @@ def reachable_places(
 ) -> list[PlaceLocation]:
     """The places whose pose and pre-place pose (at the approach's min distance) the arm
     reaches without collision, with the held object attached as the scene has it; order
-    kept."""
+    kept. Every IK solution of every place is collision-checked in one batch."""
     group = scene.robot.group(arm)
-    checker = scene.checker(group)
     T_base_world = np.linalg.inv(scene.link_pose(group.base_link).matrix())
-    kept = []
-    for loc in places:
+    owner: list[int] = []  # which (place, pose) each solution belongs to
+    solutions = []
+    inner = None if _analytic(group, eef_link) else scene.checker(group)
+    for i, loc in enumerate(places):
         pre = loc.pose.matrix().copy()
         pre[:3, 3] -= loc.pre_place_approach.vector(loc.pre_place_approach.min_distance)
-        if all(
-            solve_ik(group, T_base_world @ T, checker=checker, tip_link=eef_link,
-                     max_solutions=1, timeout=0.02).success
-            for T in (loc.pose.matrix(), pre)
-        ):  # fmt: skip
-            kept.append(loc)
-    return kept
+        for k, T in enumerate((loc.pose.matrix(), pre)):
+            res = solve_ik(group, T_base_world @ T, checker=inner, tip_link=eef_link, timeout=0.02)
+            solutions.append(res.solutions)
+            owner += [2 * i + k] * len(res.solutions)
+    if not owner:
+        return []
+    free = ~scene.checker(group).check(np.vstack(solutions))
+    ok = np.zeros(2 * len(places), dtype=bool)
+    ok[np.asarray(owner)[free]] = True
+    return [loc for i, loc in enumerate(places) if ok[2 * i] and ok[2 * i + 1]]
+
+
+def _analytic(group: JointGroup, tip_link: str) -> bool:
+    """Whether IK for this group and tip gives every solution (a closed form)."""
+    return not isinstance(ik_solver(group, tip_link), NumericIK)
 
 
 def _rz(a: float) -> NDArray[np.float64]:
