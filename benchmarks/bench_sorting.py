@@ -26,7 +26,7 @@ def main() -> None:
     total = ok = 0
     walls, per_object, planning = [], [], []
     failures = []
-    print(f"{'layout':>6} {'in trays':>9} {'wall s':>7} {'robot s/object':>15}")
+    print(f"{'layout':>6} {'in trays':>9} {'wall s':>7} {'robot s/object':>15}", flush=True)
     for k in range(args.first, args.first + args.layouts):
         t0 = time.perf_counter()
         cell = Cell.load("sorting", layout=k, mode=args.mode, time_scale=0)
@@ -40,7 +40,10 @@ def main() -> None:
         planning += [r.planning_ms for r in rows]
         failures += [(k, r.name, r.note) for r in rows if not r.in_tray]
         robot = sum(r.robot_s for r in rows) / len(rows)
-        print(f"{k:6d} {done:6d}/{len(rows)} {wall:7.1f} {robot:15.2f}")
+        print(f"{k:6d} {done:6d}/{len(rows)} {wall:7.1f} {robot:15.2f}", flush=True)
+        for r in rows:
+            if not r.in_tray:  # as they happen, so that a cut-short run still says why
+                print(f"{'':6}   {r.name}: {r.note[:150]}", flush=True)
     print(
         f"\n{ok}/{total} objects in their trays ({100 * ok / max(total, 1):.1f} %) over "
         f"{args.layouts} layouts; wall per layout median {statistics.median(walls):.1f} s, "
