@@ -177,30 +177,41 @@ def _reachable(
         work.set_object_padding(object_id, 0.0)  # the gripper goes right up to it
     T_base_world = np.linalg.inv(work.link_pose(group.base_link).matrix())
     seed = work.state.group_positions(group)
+    targets = [T_base_world @ g.pose.matrix() for g in grasps]
+    found = _free_ik(work, group, gripper.eef_link, targets, seed)
+    return [
+        Grasp(**{**g.__dict__, "joint_positions": q})  # type: ignore[arg-type]
+        for g, q in zip(grasps, found, strict=True)
+        if q is not None
+    ]
+
+
+def _free_ik(
+    scene: PlanningScene,
+    group: JointGroup,
+    tip_link: str,
+    targets: list[NDArray[np.float64]],
+    seed: NDArray[np.float64] | None = None,
+) -> list[NDArray[np.float64] | None]:
+    """For each target (base frame), its collision-free IK solution nearest ``seed``, or None.
+    An analytic solver gives every solution: all of them, for all targets, are checked in one
+    batch; a numeric one checks inside, retrying until a collision-free one."""
+    checker = scene.checker(group)
+    inner = None if _analytic(group, tip_link) else checker
     owner: list[int] = []
     solutions = []
-    # an analytic solver gives every solution: check them all in one batch; a numeric one
-    # checks inside, retrying until a collision-free one
-    inner = None if _analytic(group, gripper.eef_link) else work.checker(group)
-    for i, g in enumerate(grasps):
-        res = solve_ik(
-            group, T_base_world @ g.pose.matrix(), seed=seed, checker=inner,
-            tip_link=gripper.eef_link, timeout=0.02,
-        )  # fmt: skip
+    for i, T in enumerate(targets):
+        res = solve_ik(group, T, seed=seed, checker=inner, tip_link=tip_link, timeout=0.02)
         solutions.append(res.solutions)  # nearest the seed first
         owner += [i] * len(res.solutions)
+    out: list[NDArray[np.float64] | None] = [None] * len(targets)
     if not owner:
-        return []
+        return out
     Q = np.vstack(solutions)
-    free = ~work.checker(group).check(Q)
-    first: dict[int, int] = {}
-    for row in np.flatnonzero(free):
-        first.setdefault(owner[row], int(row))
-    return [
-        Grasp(**{**g.__dict__, "joint_positions": Q[first[i]]})  # type: ignore[arg-type]
-        for i, g in enumerate(grasps)
-        if i in first
-    ]
+    for row in np.flatnonzero(~checker.check(Q)):
+        if out[owner[row]] is None:
+            out[owner[row]] = Q[row]
+    return out
 
 
 def generate_places(
@@ -250,22 +261,17 @@ def reachable_places(
     kept. Every IK solution of every place is collision-checked in one batch."""
     group = scene.robot.group(arm)
     T_base_world = np.linalg.inv(scene.link_pose(group.base_link).matrix())
-    owner: list[int] = []  # which (place, pose) each solution belongs to
-    solutions = []
-    inner = None if _analytic(group, eef_link) else scene.checker(group)
-    for i, loc in enumerate(places):
+    targets = []
+    for loc in places:
         pre = loc.pose.matrix().copy()
         pre[:3, 3] -= loc.pre_place_approach.vector(loc.pre_place_approach.min_distance)
-        for k, T in enumerate((loc.pose.matrix(), pre)):
-            res = solve_ik(group, T_base_world @ T, checker=inner, tip_link=eef_link, timeout=0.02)
-            solutions.append(res.solutions)
-            owner += [2 * i + k] * len(res.solutions)
-    if not owner:
-        return []
-    free = ~scene.checker(group).check(np.vstack(solutions))
-    ok = np.zeros(2 * len(places), dtype=bool)
-    ok[np.asarray(owner)[free]] = True
-    return [loc for i, loc in enumerate(places) if ok[2 * i] and ok[2 * i + 1]]
+        targets += [T_base_world @ loc.pose.matrix(), T_base_world @ pre]
+    found = _free_ik(scene, group, eef_link, targets)
+    return [
+        loc
+        for i, loc in enumerate(places)
+        if found[2 * i] is not None and found[2 * i + 1] is not None
+    ]
 
 
 def _analytic(group: JointGroup, tip_link: str) -> bool:

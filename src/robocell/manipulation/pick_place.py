@@ -189,16 +189,7 @@ class Manipulator:
             self._pick(name, grasps, result)
         finally:
             scene.set_object_padding(name, padding)
-        if not result.success:
-            last = result.failures()[-1] if result.failures() else None
-            result.reason = (
-                f"all {len(grasps)} grasps failed; last: {last.stage} of {last.candidate}: "
-                f"{last.reason}"
-                if last
-                else "no grasp worked"
-            )
-        result.planning_time, result.robot_time = self._plan_s, self._robot_s
-        return result
+        return self._finish(result, len(grasps), "grasps")
 
     def _pick(self, name: str, grasps: list[Grasp], result: ManipulationResult) -> None:
         cell, scene = self.cell, self.cell.scene
@@ -255,6 +246,18 @@ class Manipulator:
         if self.cell.world is None:
             self.cell.drop(name)
         self.cell.sync_scene()
+
+    def _finish(self, result: ManipulationResult, n: int, what: str) -> ManipulationResult:
+        """The times, and for a failure without a reason yet, its last failed stage."""
+        if not result.success and not result.reason:
+            last = result.failures()[-1] if result.failures() else None
+            result.reason = (
+                f"all {n} {what} failed; last: {last.stage} of {last.candidate}: {last.reason}"
+                if last
+                else f"no {what[:-1]} worked"
+            )
+        result.planning_time, result.robot_time = self._plan_s, self._robot_s
+        return result
 
     def _after_stop(self, name: str) -> None:
         """After a stop: the robot holds where it is; the scene keeps the object attached only
@@ -352,13 +355,4 @@ class Manipulator:
                     break  # released: no other location can be tried with it
             except RobocellError as exc:
                 result.stages.append(StageResult(loc.id, "plan", False, str(exc)))
-        if not result.success and not result.reason:
-            last = result.failures()[-1] if result.failures() else None
-            result.reason = (
-                f"all {len(locations)} places failed; last: {last.stage} of "
-                f"{last.candidate}: {last.reason}"
-                if last
-                else "no place worked"
-            )
-        result.planning_time, result.robot_time = self._plan_s, self._robot_s
-        return result
+        return self._finish(result, len(locations), "places")
