@@ -255,7 +255,7 @@ def bench_collision(results: dict, n: int, exact_n: int, which: str) -> None:
         t = time.perf_counter()
         near_fast = checker.check(near)
         near_rate = n / (time.perf_counter() - t)
-        near_bad = int(np.sum(~near_fast & checker.check_exact(near[:exact_n])))
+        near_bad = int(np.sum(~near_fast[:exact_n] & checker.check_exact(near[:exact_n])))
         free_but_hit = int(np.sum(~fast & exact_all)) + near_bad
         hit_but_free = int(np.sum(fast & ~exact_all))
         rate = n / t_fast

@@ -162,6 +162,53 @@ def test_fast_check_never_calls_a_colliding_state_free(scene, irb120, seed):
     assert (cls != 2).mean() > 0.7
 
 
+def test_primitive_robot_is_settled_in_the_kernel(scene, irb120):
+    """A robot and a held object made of primitives against primitive obstacles: the kernel's
+    exact test (GJK) settles every state, and its answer is coal's."""
+    arm = irb120.group("arm")
+    q = np.array([0.0, 0.4, 0.3, 0.0, 0.87, 0.0])
+    scene.set_joint_positions("arm", q)
+    T_tcp = fk(arm, q, "tcp")
+    scene.add_box("part", Pose.from_matrix(T_tcp), (0.03, 0.04, 0.12))
+    scene.attach_object("part", "tool0")
+    scene.add_sphere("ball", Pose((0.3, -0.3, 0.4)), 0.08)
+    checker = scene.checker(arm)
+    qs = arm.random(np.random.default_rng(5), 3000)
+    cls, _ = checker.classify(qs)
+    assert (cls != 2).mean() > 0.99
+    fast, exact, _ = _exact_agrees(checker, qs)
+    assert np.array_equal(fast, exact)
+    assert 0.05 < exact.mean() < 0.95
+
+
+@pytest.mark.parametrize(
+    ("robot", "group_name", "named"),
+    [("mbm_ur5", "manipulator", "home"), ("mbm_panda", "panda_arm", "ready")],
+)
+def test_mesh_robot_with_a_held_box_is_never_called_free_in_collision(
+    robot, group_name, named, request
+):
+    """Mesh links: pairs of links go through one tree against the other's distance grid; a
+    held box through the exact primitive distance. No state the fast path calls free collides."""
+    model = request.getfixturevalue(robot)
+    group = model.group(group_name)
+    scene = PlanningScene(model)
+    scene.set_joint_positions(group.name, group.named(named))
+    T_tip = scene.link_pose(group.tip_link).matrix()
+    scene.add_box("part", Pose.from_matrix(T_tip), (0.05, 0.05, 0.15))
+    # held in the hand: it may touch the links it touches where it is picked up
+    touching = {a if b == "part" else b for a, b in scene.colliding_pairs() if "part" in (a, b)}
+    scene.attach_object("part", group.tip_link, sorted(touching))
+    assert not scene.in_collision()
+    scene.add_box("table", Pose((0.5, 0.0, 0.1)), (0.5, 0.8, 0.2))
+    scene.add_cylinder("post", Pose((-0.3, 0.3, 0.4)), 0.05, 0.8)
+    checker = scene.checker(group)
+    qs = group.random(np.random.default_rng(11), 2500)
+    fast, exact, free_but_hit = _exact_agrees(checker, qs)
+    assert len(free_but_hit) == 0
+    assert 0.05 < exact.mean() < 0.95
+
+
 def test_check_motion(scene, irb120):
     arm = irb120.group("arm")
     checker = scene.checker(arm)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from robocell.geometry import Box, Cylinder, Mesh, Sphere, triangulate
-from robocell.scene.spheres import shape_tree, signed_distance
+from robocell.scene.spheres import distance_grid, shape_tree, signed_distance
 
 
 def _leaves_of(tree, i):
@@ -57,3 +57,28 @@ def test_every_node_contains_the_leaves_below_it():
         assert np.all(
             np.linalg.norm(tree.nodes[lv, :3] - n[:3], axis=1) + tree.nodes[lv, 3] <= n[3] + 1e-9
         )
+
+
+def test_distance_grid_is_a_lower_bound_of_the_distance_to_the_leaves():
+    """At any point x and its nearest grid point g, grid(g) − |x − g| ≤ the distance from x to
+    the union of the leaf spheres; far outside, the box bound holds."""
+    V, F = triangulate(Cylinder(0.05, 0.3), segments=40)
+    tree = shape_tree(Mesh(V, F))
+    grid = distance_grid(tree)
+    rng = np.random.default_rng(2)
+    span = (grid.dims - 1) * grid.h
+    P = grid.origin + rng.uniform(-0.2, 1.2, (3000, 3)) * span
+    idx = np.clip(np.round((P - grid.origin) / grid.h), 0, grid.dims - 1).astype(int)
+    g = grid.origin + idx * grid.h
+    flat = (idx[:, 0] * grid.dims[1] + idx[:, 1]) * grid.dims[2] + idx[:, 2]
+    bound = grid.values[flat] - np.linalg.norm(P - g, axis=1)
+    box = np.linalg.norm(np.maximum(np.maximum(grid.box[0] - P, P - grid.box[1]), 0), axis=1)
+    L = tree.leaves
+    true = np.maximum(
+        (np.linalg.norm(P[:, None, :] - L[None, :, :3], axis=2) - L[None, :, 3]).min(axis=1), 0
+    )
+    assert np.all(np.maximum(bound, box) <= true + 1e-12)
+    # and it is tight near the body: within the grid's half diagonal plus a leaf radius
+    near = (true < 0.02) & (np.abs(P - g).max(axis=1) < 0.5 * grid.h + 1e-12)
+    assert near.sum() > 50
+    assert np.all(true[near] - bound[near] <= np.sqrt(3) * grid.h + 1e-9)

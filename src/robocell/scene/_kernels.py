@@ -110,6 +110,372 @@ def _trees_touch(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, stack):  #
     return False
 
 
+FIELD_NONE, FIELD_GRID, FIELD_PRIMITIVES = 0, 1, 2
+
+
+# ---------------------------------------------------------------------------------- exact
+# Solid primitives against solid primitives: a boolean GJK on the Minkowski difference
+# (Gilbert, Johnson & Keerthi 1988; the simplex cases as in Ericson, ch. 9). One shape is grown
+# by EXACT_TOL, so "touching" means closer than that: a pair it calls free is free by at least
+# EXACT_TOL (coal's verdict cannot differ there); a pair it cannot settle in GJK_ITERATIONS
+# is left to coal.
+EXACT_TOL = 1e-6
+GJK_ITERATIONS = 64
+GJK_FREE, GJK_HIT, GJK_UNSURE = 0, 1, 2
+
+
+@njit(cache=True, inline="always")
+def _support(kind, T, dims, dx, dy, dz, out, sign):  # type: ignore[no-untyped-def]
+    """out += sign · the point of primitive (kind, T (≥3×4), dims) farthest along sign·d."""
+    dx, dy, dz = sign * dx, sign * dy, sign * dz
+    lx = T[0, 0] * dx + T[1, 0] * dy + T[2, 0] * dz
+    ly = T[0, 1] * dx + T[1, 1] * dy + T[2, 1] * dz
+    lz = T[0, 2] * dx + T[1, 2] * dy + T[2, 2] * dz
+    if kind == OBS_BOX:
+        sx = dims[0] if lx >= 0.0 else -dims[0]
+        sy = dims[1] if ly >= 0.0 else -dims[1]
+        sz = dims[2] if lz >= 0.0 else -dims[2]
+    elif kind == OBS_CYLINDER:
+        rxy = math.sqrt(lx * lx + ly * ly)
+        if rxy > 1e-300:
+            sx, sy = dims[0] * lx / rxy, dims[0] * ly / rxy
+        else:
+            sx, sy = 0.0, 0.0
+        sz = dims[1] if lz >= 0.0 else -dims[1]
+    else:
+        n = math.sqrt(lx * lx + ly * ly + lz * lz)
+        if n > 1e-300:
+            sx, sy, sz = dims[0] * lx / n, dims[0] * ly / n, dims[0] * lz / n
+        else:
+            sx, sy, sz = dims[0], 0.0, 0.0
+    for i in range(3):
+        out[i] += sign * (T[i, 0] * sx + T[i, 1] * sy + T[i, 2] * sz + T[i, 3])
+
+
+@njit(cache=True, inline="always")
+def _minkowski(ka, Ta, da, kb, Tb, db, d, out):  # type: ignore[no-untyped-def]
+    """Support of (A grown by EXACT_TOL) − B along d."""
+    out[0] = out[1] = out[2] = 0.0
+    _support(ka, Ta, da, d[0], d[1], d[2], out, 1.0)
+    _support(kb, Tb, db, d[0], d[1], d[2], out, -1.0)
+    n = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    for i in range(3):
+        out[i] += EXACT_TOL * d[i] / n
+
+
+@njit(cache=True, inline="always")
+def _cross(a, b, out):  # type: ignore[no-untyped-def]
+    x = a[1] * b[2] - a[2] * b[1]
+    y = a[2] * b[0] - a[0] * b[2]
+    z = a[0] * b[1] - a[1] * b[0]
+    out[0], out[1], out[2] = x, y, z
+
+
+@njit(cache=True, inline="always")
+def _dot(a, b):  # type: ignore[no-untyped-def]
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(cache=True)
+def gjk_intersect(ka, Ta, da, kb, Tb, db):  # type: ignore[no-untyped-def]
+    """GJK_HIT if solid primitives A and B are closer than EXACT_TOL, GJK_FREE if not,
+    GJK_UNSURE if the iterations run out."""
+    S = np.empty((4, 3))  # simplex, newest point last
+    d = np.empty(3)
+    a = np.empty(3)
+    ab = np.empty(3)
+    ac = np.empty(3)
+    ad = np.empty(3)
+    ao = np.empty(3)
+    n1 = np.empty(3)
+    n2 = np.empty(3)
+    for i in range(3):
+        d[i] = Tb[i, 3] - Ta[i, 3]
+    if _dot(d, d) < 1e-24:
+        d[0], d[1], d[2] = 1.0, 0.0, 0.0
+    _minkowski(ka, Ta, da, kb, Tb, db, d, a)
+    S[0] = a
+    n = 1
+    d[0], d[1], d[2] = -a[0], -a[1], -a[2]
+    for _ in range(GJK_ITERATIONS):
+        if _dot(d, d) < 1e-30:
+            return GJK_HIT  # the origin is on the simplex
+        _minkowski(ka, Ta, da, kb, Tb, db, d, a)
+        if _dot(a, d) < 0.0:
+            return GJK_FREE  # a separating direction
+        S[n] = a
+        n += 1
+        # the simplex's feature nearest the origin, and the direction from it to the origin
+        while True:
+            A = S[n - 1]
+            ao[0], ao[1], ao[2] = -A[0], -A[1], -A[2]
+            if n == 2:
+                B = S[0]
+                for i in range(3):
+                    ab[i] = B[i] - A[i]
+                if _dot(ab, ao) > 0.0:
+                    _cross(ab, ao, n1)
+                    _cross(n1, ab, d)
+                else:
+                    S[0] = A
+                    n = 1
+                    d[0], d[1], d[2] = ao[0], ao[1], ao[2]
+                break
+            if n == 3:
+                B, C = S[1], S[0]
+                for i in range(3):
+                    ab[i] = B[i] - A[i]
+                    ac[i] = C[i] - A[i]
+                _cross(ab, ac, n1)  # the triangle's normal
+                _cross(n1, ac, n2)
+                if _dot(n2, ao) > 0.0:
+                    if _dot(ac, ao) > 0.0:
+                        # edge AC
+                        S[1] = A
+                        n = 2
+                        _cross(ac, ao, n2)
+                        _cross(n2, ac, d)
+                        break
+                    # edge AB (or A)
+                    S[0] = S[1]
+                    S[1] = A
+                    n = 2
+                    continue
+                _cross(ab, n1, n2)
+                if _dot(n2, ao) > 0.0:
+                    S[0] = S[1]
+                    S[1] = A
+                    n = 2
+                    continue
+                if _dot(n1, ao) > 0.0:
+                    d[0], d[1], d[2] = n1[0], n1[1], n1[2]
+                else:
+                    # the origin is below: wind the triangle the other way
+                    tmp0, tmp1, tmp2 = S[0, 0], S[0, 1], S[0, 2]
+                    S[0] = S[1]
+                    S[1, 0], S[1, 1], S[1, 2] = tmp0, tmp1, tmp2
+                    d[0], d[1], d[2] = -n1[0], -n1[1], -n1[2]
+                break
+            # n == 4: tetrahedron D C B A (S[0], S[1], S[2], A)
+            B, C, D = S[2], S[1], S[0]
+            for i in range(3):
+                ab[i] = B[i] - A[i]
+                ac[i] = C[i] - A[i]
+                ad[i] = D[i] - A[i]
+            _cross(ab, ac, n1)
+            if _dot(n1, ao) > 0.0:
+                # face ABC: keep C, B, A
+                S[0] = S[1]
+                S[1] = S[2]
+                S[2] = A
+                n = 3
+                continue
+            _cross(ac, ad, n1)
+            if _dot(n1, ao) > 0.0:
+                # face ACD: keep D, C, A
+                S[2] = A
+                n = 3
+                continue
+            _cross(ad, ab, n1)
+            if _dot(n1, ao) > 0.0:
+                # face ADB: keep B, D, A
+                S[1] = S[0]
+                S[0] = S[2]
+                S[2] = A
+                n = 3
+                continue
+            return GJK_HIT  # the origin is inside the tetrahedron
+    return GJK_UNSURE
+
+
+@njit(cache=True, inline="always")
+def _placed(TB, b, P, out):  # type: ignore[no-untyped-def]
+    """out (3×4) = TB[b] (3×4) · P (4×4)."""
+    for i in range(3):
+        for j in range(4):
+            out[i, j] = TB[b, i, 0] * P[0, j] + TB[b, i, 1] * P[1, j] + TB[b, i, 2] * P[2, j]
+        out[i, 3] += TB[b, i, 3]
+
+
+@njit(cache=True)
+def _exact_world(b, kind, To, dims, TB, prim_start, prim_kind, prim_T, prim_dims):  # type: ignore[no-untyped-def]
+    """GJK over body b's primitives against one solid obstacle primitive."""
+    Tp = np.empty((3, 4))
+    unsure = False
+    for p in range(prim_start[b], prim_start[b + 1]):
+        _placed(TB, b, prim_T[p], Tp)
+        r = gjk_intersect(prim_kind[p], Tp, prim_dims[p], kind, To, dims)
+        if r == GJK_HIT:
+            return GJK_HIT
+        if r == GJK_UNSURE:
+            unsure = True
+    return GJK_UNSURE if unsure else GJK_FREE
+
+
+@njit(cache=True)
+def _exact_self(a, b, TB, prim_start, prim_kind, prim_T, prim_dims):  # type: ignore[no-untyped-def]
+    """GJK over the primitives of bodies a and b."""
+    Ta = np.empty((3, 4))
+    Tb = np.empty((3, 4))
+    unsure = False
+    for p in range(prim_start[a], prim_start[a + 1]):
+        _placed(TB, a, prim_T[p], Ta)
+        for q in range(prim_start[b], prim_start[b + 1]):
+            _placed(TB, b, prim_T[q], Tb)
+            r = gjk_intersect(prim_kind[p], Ta, prim_dims[p], prim_kind[q], Tb, prim_dims[q])
+            if r == GJK_HIT:
+                return GJK_HIT
+            if r == GJK_UNSURE:
+                unsure = True
+    return GJK_UNSURE if unsure else GJK_FREE
+
+
+@njit(cache=True, inline="always")
+def _field_bound(
+    x,
+    y,
+    z,
+    f,
+    field_kind,
+    grid_origin,
+    grid_box,
+    grid_h,
+    grid_dims,
+    grid_off,
+    grid_values,
+    prim_start,
+    prim_kind,
+    prim_T,
+    prim_dims,
+):  # type: ignore[no-untyped-def]
+    """A lower bound of the distance from (x, y, z), in body f's frame, to body f: its grid
+    value at the nearest grid point minus the distance to that point, or the exact distance
+    to its solid primitives."""
+    if field_kind[f] == FIELD_PRIMITIVES:
+        best = np.inf
+        for p in range(prim_start[f], prim_start[f + 1]):
+            d = _obstacle_distance(x, y, z, prim_kind[p], prim_T[p], prim_dims[p])
+            if d < best:
+                best = d
+        return best
+    # outside the grid: the distance to the box around the body's leaves
+    ex = max(grid_box[f, 0, 0] - x, x - grid_box[f, 1, 0], 0.0)
+    ey = max(grid_box[f, 0, 1] - y, y - grid_box[f, 1, 1], 0.0)
+    ez = max(grid_box[f, 0, 2] - z, z - grid_box[f, 1, 2], 0.0)
+    box = math.sqrt(ex * ex + ey * ey + ez * ez)
+    h = grid_h[f]
+    i = min(max((x - grid_origin[f, 0]) / h, 0.0), grid_dims[f, 0] - 1.0)
+    j = min(max((y - grid_origin[f, 1]) / h, 0.0), grid_dims[f, 1] - 1.0)
+    k = min(max((z - grid_origin[f, 2]) / h, 0.0), grid_dims[f, 2] - 1.0)
+    ii, jj, kk = int(i + 0.5), int(j + 0.5), int(k + 0.5)
+    gx = x - (grid_origin[f, 0] + ii * h)
+    gy = y - (grid_origin[f, 1] + jj * h)
+    gz = z - (grid_origin[f, 2] + kk * h)
+    v = grid_values[grid_off[f] + (ii * grid_dims[f, 1] + jj) * grid_dims[f, 2] + kk]
+    return max(v - math.sqrt(gx * gx + gy * gy + gz * gz), box)
+
+
+@njit(cache=True)
+def _tree_touches_sphere(root, nodes, left, right, x, y, z, r, stack):  # type: ignore[no-untyped-def]
+    """Whether any leaf of the tree at ``root`` touches the sphere (x, y, z, r), all in the
+    tree's body frame."""
+    sp = 1
+    stack[0] = root
+    while sp > 0:
+        sp -= 1
+        n = stack[sp]
+        dx, dy, dz = x - nodes[n, 0], y - nodes[n, 1], z - nodes[n, 2]
+        rr = r + nodes[n, 3]
+        if dx * dx + dy * dy + dz * dz > rr * rr:
+            continue
+        if left[n] < 0:
+            return True
+        stack[sp] = left[n]
+        stack[sp + 1] = right[n]
+        sp += 2
+    return False
+
+
+@njit(cache=True)
+def _tree_near_field(
+    f,
+    b,
+    TB,
+    body_root,
+    nodes,
+    left,
+    right,
+    field_kind,
+    grid_origin,
+    grid_box,
+    grid_h,
+    grid_dims,
+    grid_off,
+    grid_values,
+    prim_start,
+    prim_kind,
+    prim_T,
+    prim_dims,
+    stack,
+    stack2,
+):  # type: ignore[no-untyped-def]
+    """Whether a leaf of body b's tree may touch body f, by descending b's tree against f's
+    distance field (one tree, not two). A leaf the field cannot clear is settled by f's own
+    tree (grids), or touches (primitives: their distance is exact)."""
+    # b's frame to f's: R = Rf^T Rb, t = Rf^T (tb - tf)
+    R = np.empty((3, 3))
+    t = np.empty(3)
+    for i in range(3):
+        for j in range(3):
+            R[i, j] = (
+                TB[f, 0, i] * TB[b, 0, j] + TB[f, 1, i] * TB[b, 1, j] + TB[f, 2, i] * TB[b, 2, j]
+            )
+        t[i] = (
+            TB[f, 0, i] * (TB[b, 0, 3] - TB[f, 0, 3])
+            + TB[f, 1, i] * (TB[b, 1, 3] - TB[f, 1, 3])
+            + TB[f, 2, i] * (TB[b, 2, 3] - TB[f, 2, 3])
+        )
+    exact = field_kind[f] == FIELD_PRIMITIVES
+    sp = 1
+    stack[0] = body_root[b]
+    while sp > 0:
+        sp -= 1
+        n = stack[sp]
+        sx, sy, sz = nodes[n, 0], nodes[n, 1], nodes[n, 2]
+        x = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
+        y = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
+        z = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
+        d = _field_bound(
+            x,
+            y,
+            z,
+            f,
+            field_kind,
+            grid_origin,
+            grid_box,
+            grid_h,
+            grid_dims,
+            grid_off,
+            grid_values,
+            prim_start,
+            prim_kind,
+            prim_T,
+            prim_dims,
+        )
+        if d > nodes[n, 3]:
+            continue
+        if left[n] < 0:
+            if exact or _tree_touches_sphere(
+                body_root[f], nodes, left, right, x, y, z, nodes[n, 3], stack2
+            ):
+                return True
+            continue
+        stack[sp] = left[n]
+        stack[sp + 1] = right[n]
+        sp += 2
+    return False
+
+
 @njit(cache=True)
 def _classify_state(  # type: ignore[no-untyped-def]
     TB,
@@ -126,6 +492,18 @@ def _classify_state(  # type: ignore[no-untyped-def]
     obs_inner_ok,
     world_pairs,
     self_pairs,
+    pair_field,
+    field_kind,
+    grid_origin,
+    grid_box,
+    grid_h,
+    grid_dims,
+    grid_off,
+    grid_values,
+    prim_start,
+    prim_kind,
+    prim_T,
+    prim_dims,
     W,
     stamp,
     Wi,
@@ -133,6 +511,7 @@ def _classify_state(  # type: ignore[no-untyped-def]
     cur,
     stack,
     stack2,
+    stack3,
     flags,
 ):
     """FREE / HIT / UNSURE for one state (body poses in TB). Unsure pairs are flagged
@@ -177,6 +556,14 @@ def _classify_state(  # type: ignore[no-untyped-def]
                     < inner[s, 3]
                 ):
                     return HIT
+        if field_kind[b] == FIELD_PRIMITIVES and obs_inner_ok[o]:
+            r = _exact_world(
+                b, obs_kind[o], obs_T[o], obs_dims[o], TB, prim_start, prim_kind, prim_T, prim_dims
+            )
+            if r == GJK_HIT:
+                return HIT
+            if r == GJK_FREE:
+                continue
         unsure = True
         flags[k] = True
     for k in range(self_pairs.shape[0]):
@@ -209,8 +596,41 @@ def _classify_state(  # type: ignore[no-untyped-def]
                 rr = inner[s, 3] + inner[t, 3]
                 if dx * dx + dy * dy + dz * dz < rr * rr:
                     return HIT
-        if not _trees_touch(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, stack2):
+        m = pair_field[k]
+        if m < 0:
+            touch = _trees_touch(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, stack2)
+        else:
+            f, d = (a, b) if m == 0 else (b, a)
+            touch = _tree_near_field(
+                f,
+                d,
+                TB,
+                body_root,
+                nodes,
+                left,
+                right,
+                field_kind,
+                grid_origin,
+                grid_box,
+                grid_h,
+                grid_dims,
+                grid_off,
+                grid_values,
+                prim_start,
+                prim_kind,
+                prim_T,
+                prim_dims,
+                stack,
+                stack3,
+            )
+        if not touch:
             continue
+        if field_kind[a] == FIELD_PRIMITIVES and field_kind[b] == FIELD_PRIMITIVES:
+            r = _exact_self(a, b, TB, prim_start, prim_kind, prim_T, prim_dims)
+            if r == GJK_HIT:
+                return HIT
+            if r == GJK_FREE:
+                continue
         unsure = True
         flags[n_world + k] = True
     return UNSURE if unsure else FREE
@@ -248,6 +668,18 @@ def _classify_range(  # type: ignore[no-untyped-def]
     obs_inner_ok,
     world_pairs,
     self_pairs,
+    pair_field,
+    field_kind,
+    grid_origin,
+    grid_box,
+    grid_h,
+    grid_dims,
+    grid_off,
+    grid_values,
+    prim_start,
+    prim_kind,
+    prim_T,
+    prim_dims,
     W,
     stamp,
     Wi,
@@ -267,6 +699,7 @@ def _classify_range(  # type: ignore[no-untyped-def]
     q = q_base.copy()
     stack = np.empty(256, np.int64)
     stack2 = np.empty((512, 2), np.int64)
+    stack3 = np.empty(256, np.int64)
     for s in range(s0, s1):
         for i in range(group_idx.shape[0]):
             q[group_idx[i]] = qs[s, i]
@@ -281,6 +714,7 @@ def _classify_range(  # type: ignore[no-untyped-def]
                         + L[i, 2] * body_T[b, 2, j]
                         + (L[i, 3] if j == 3 else 0.0)
                     )
+        row = flags[s] if record_flags else scratch_row
         out[s] = _classify_state(
             TB,
             body_root,
@@ -296,6 +730,18 @@ def _classify_range(  # type: ignore[no-untyped-def]
             obs_inner_ok,
             world_pairs,
             self_pairs,
+            pair_field,
+            field_kind,
+            grid_origin,
+            grid_box,
+            grid_h,
+            grid_dims,
+            grid_off,
+            grid_values,
+            prim_start,
+            prim_kind,
+            prim_T,
+            prim_dims,
             W,
             stamp,
             Wi,
@@ -303,7 +749,8 @@ def _classify_range(  # type: ignore[no-untyped-def]
             epoch + s,
             stack,
             stack2,
-            flags[s] if record_flags else scratch_row,
+            stack3,
+            row,
         )
 
 
@@ -337,6 +784,18 @@ def classify(  # type: ignore[no-untyped-def]
     obs_inner_ok,
     world_pairs,
     self_pairs,
+    pair_field,
+    field_kind,
+    grid_origin,
+    grid_box,
+    grid_h,
+    grid_dims,
+    grid_off,
+    grid_values,
+    prim_start,
+    prim_kind,
+    prim_T,
+    prim_dims,
     W,
     stamp,
     Wi,
@@ -390,6 +849,18 @@ def classify(  # type: ignore[no-untyped-def]
             obs_inner_ok,
             world_pairs,
             self_pairs,
+            pair_field,
+            field_kind,
+            grid_origin,
+            grid_box,
+            grid_h,
+            grid_dims,
+            grid_off,
+            grid_values,
+            prim_start,
+            prim_kind,
+            prim_T,
+            prim_dims,
             W[0],
             stamp[0],
             Wi[0],
@@ -435,6 +906,18 @@ def classify(  # type: ignore[no-untyped-def]
             obs_inner_ok,
             world_pairs,
             self_pairs,
+            pair_field,
+            field_kind,
+            grid_origin,
+            grid_box,
+            grid_h,
+            grid_dims,
+            grid_off,
+            grid_values,
+            prim_start,
+            prim_kind,
+            prim_T,
+            prim_dims,
             W[t],
             stamp[t],
             Wi[t],

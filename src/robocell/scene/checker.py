@@ -27,7 +27,7 @@ from robocell.kinematics.fk import tree_args
 from robocell.robot.model import JointGroup, RobotModel
 from robocell.scene import _kernels as K
 from robocell.scene.objects import AttachedObject
-from robocell.scene.spheres import SphereTree, body_tree
+from robocell.scene.spheres import DistanceGrid, SphereTree, body_grid, body_tree
 
 if TYPE_CHECKING:
     from robocell.scene.planning_scene import PlanningScene
@@ -42,15 +42,47 @@ def robot_spheres(robot: RobotModel) -> dict[str, SphereTree]:
     return {link: body_tree(shapes) for link, shapes in by_link.items()}
 
 
+@lru_cache(maxsize=16)
+def robot_grids(robot: RobotModel) -> dict[str, DistanceGrid]:
+    """The distance grid of every link whose collision geometry has a mesh (links made of
+    primitives only have exact distances instead)."""
+    meshy = {g.link for g in robot.collision_geometry if isinstance(g.shape, Mesh)}
+    return {link: body_grid(t) for link, t in robot_spheres(robot).items() if link in meshy}
+
+
 @dataclass
 class Body:
-    """A rigid body that collides: a robot link or a held object, on link ``link``."""
+    """A rigid body that collides: a robot link or a held object, on link ``link``.
+    ``shapes`` are its shapes in the body's frame; ``grid`` its distance grid, if it has one."""
 
     name: str
     link: str
     T_link_body: NDArray[np.float64]
     spheres: SphereTree
     moving: bool
+    shapes: list[tuple[Shape, NDArray[np.float64]]]
+    grid: DistanceGrid | None = None
+
+    @property
+    def field_kind(self) -> int:
+        """How the kernel bounds the distance to this body (see K.FIELD_*)."""
+        if self.shapes and all(isinstance(s, Box | Cylinder | Sphere) for s, _ in self.shapes):
+            return K.FIELD_PRIMITIVES
+        return K.FIELD_GRID if self.grid is not None else K.FIELD_NONE
+
+
+def field_side(a: Body, b: Body) -> int:
+    """Which body of a self pair the kernel takes the distance field of, descending the
+    other's tree: 0 (a), 1 (b) or −1 (neither has one: both trees are descended). Exact
+    primitive distances first; between two of a kind, the field of the body with the larger
+    tree (the smaller tree is descended)."""
+    ka, kb = a.field_kind, b.field_kind
+    rank = {K.FIELD_PRIMITIVES: 2, K.FIELD_GRID: 1, K.FIELD_NONE: 0}
+    if rank[ka] == 0 and rank[kb] == 0:
+        return -1
+    if rank[ka] != rank[kb]:
+        return 0 if rank[ka] > rank[kb] else 1
+    return 0 if len(a.spheres.nodes) >= len(b.spheres.nodes) else 1
 
 
 @dataclass
@@ -134,6 +166,45 @@ def exact_pool(model: Any, gm: Any, threads: int) -> Any:
     return pool
 
 
+def _pack_fields(bodies: list[Body]) -> tuple[NDArray[Any], ...]:
+    """The kernel's arrays of the bodies' distance fields: field_kind, grid_origin,
+    grid_box, grid_h, grid_dims, grid_off, grid_values (concatenated), prim_start, prim_kind,
+    prim_T, prim_dims."""
+    B = len(bodies)
+    kind = np.array([b.field_kind for b in bodies], dtype=np.int64)
+    origin = np.zeros((B, 3))
+    box = np.zeros((B, 2, 3))
+    h = np.ones(B)
+    dims = np.ones((B, 3), dtype=np.int64)
+    off = np.zeros(B, dtype=np.int64)
+    values: list[NDArray[np.float32]] = [np.zeros(1, np.float32)]
+    n = 1
+    prims: list[Obstacle] = []
+    prim_start = [0]
+    for bi, b in enumerate(bodies):
+        if kind[bi] == K.FIELD_GRID and b.grid is not None:
+            origin[bi], box[bi], h[bi], dims[bi] = b.grid.origin, b.grid.box, b.grid.h, b.grid.dims
+            off[bi] = n
+            values.append(b.grid.values)
+            n += len(b.grid.values)
+        elif kind[bi] == K.FIELD_PRIMITIVES:
+            prims += [obstacle_of(b.name, sh, T) for sh, T in b.shapes]
+        prim_start.append(len(prims))
+    return (
+        kind,
+        origin,
+        box,
+        h,
+        dims,
+        off,
+        np.concatenate(values).astype(np.float32),
+        np.array(prim_start, dtype=np.int64),
+        np.array([o.kind for o in prims], dtype=np.int64),
+        np.array([o.T_scene_shape for o in prims]).reshape(-1, 4, 4),
+        np.array([o.dims for o in prims]).reshape(-1, 3),
+    )
+
+
 class CollisionChecker:
     """Batched collision checks for ``group`` in a snapshot of ``scene`` (joints outside the
     group at the scene's current state). Build it with :meth:`PlanningScene.checker`.
@@ -153,15 +224,23 @@ class CollisionChecker:
         moved = set(group.link_names)
 
         spheres = robot_spheres(robot)
-        bodies = [Body(link, link, np.eye(4), s, link in moved) for link, s in spheres.items()]
+        grids = robot_grids(robot)
+        link_shapes: dict[str, list[tuple[Shape, NDArray[np.float64]]]] = {}
+        for g in robot.collision_geometry:
+            link_shapes.setdefault(g.link, []).append((g.shape, g.T_link_shape))
+        bodies = [
+            Body(link, link, np.eye(4), s, link in moved, link_shapes[link], grids.get(link))
+            for link, s in spheres.items()
+        ]
         for att in scene.attached_objects.values():
-            tree = body_tree(
-                [
-                    (sh, p.matrix())
-                    for sh, p in zip(att.object.shapes, att.object.shape_poses, strict=True)
-                ]
+            shapes = [
+                (sh, p.matrix())
+                for sh, p in zip(att.object.shapes, att.object.shape_poses, strict=True)
+            ]
+            tree = body_tree(shapes)
+            bodies.append(
+                Body(att.id, att.link, att.object.pose.matrix(), tree, att.link in moved, shapes)
             )
-            bodies.append(Body(att.id, att.link, att.object.pose.matrix(), tree, att.link in moved))
         self.bodies = bodies
         T_root_world = scene.T_root_world
         obstacles: list[Obstacle] = []
@@ -252,6 +331,10 @@ class CollisionChecker:
 
         self._world_pairs = np.array(self.world_pairs, dtype=np.int64).reshape(-1, 2)
         self._self_pairs = np.array(self.self_pairs, dtype=np.int64).reshape(-1, 2)
+        self._pair_field = np.array(
+            [field_side(bodies[i], bodies[j]) for i, j in self.self_pairs], dtype=np.int64
+        )
+        fields = _pack_fields(bodies)
         args = tree_args(robot)
         self._args = args
         moving_links = sorted({int(x) for x in link_idx})
@@ -291,6 +374,8 @@ class CollisionChecker:
             self._obs_inner_ok,
             self._world_pairs,
             self._self_pairs,
+            self._pair_field,
+            *fields,
             *self._scratch,
         )
 
@@ -374,7 +459,7 @@ class CollisionChecker:
         """classify on an already validated (N, dof) C-contiguous array."""
         epoch = self._epoch
         self._epoch += q.shape[0]
-        return K.classify(  # type: ignore[no-any-return]
+        return K.classify(  # type: ignore[no-any-return, call-arg]
             q, *self._kernel_args, epoch, pair_flags, 64
         )
 

@@ -445,6 +445,90 @@ def merge_trees(trees: list[SphereTree]) -> SphereTree:
     return SphereTree(nodes, left, right, np.vstack(inner) if inner else np.zeros((0, 4)))
 
 
+# ---------------------------------------------------------------------------------- fields
+# A body's distance grid: at each point of a regular grid around the body, a lower bound of the
+# distance to what its leaves cover. The distance to a set is 1-Lipschitz, so at any point x
+# and grid point g: dist(x) >= grid(g) - |x - g|. The checker descends one body's tree against
+# the other's grid (one tree instead of two): pairs of links that are always a few mm apart
+# cost several times less than a dual-tree descent.
+GRID_POINTS = 400_000  # most points per body's grid (1.6 MB as float32)
+GRID_STEP = 0.003  # [m] finest grid step
+GRID_MARGIN = 0.02  # [m] the grid reaches this far past the leaves; beyond, the box bound holds
+
+
+@dataclass
+class DistanceGrid:
+    """Lower bounds of the distance to a body's surface, on a grid in the body's frame:
+    point (i, j, k) is at ``origin + h·(i, j, k)``, its value at ``values[(i·ny + j)·nz + k]``."""
+
+    origin: NDArray[np.float64]
+    h: float
+    dims: NDArray[np.int64]
+    values: NDArray[np.float32]
+    box: NDArray[np.float64]  # (2, 3): the box around the leaves (a bound outside the grid)
+
+
+@njit(cache=True, parallel=True)
+def _grid_lower_bounds(origin, h, dims, nodes, left, right):  # type: ignore[no-untyped-def]
+    """For every grid point, min over the leaf spheres of |p − c| − r (clamped at 0), by a
+    branch-and-bound descent of the tree; rounded down to float32."""
+    n = dims[0] * dims[1] * dims[2]
+    out = np.empty(n, np.float32)
+    per = 4096
+    for chunk in prange((n + per - 1) // per):
+        stack = np.empty(256, np.int64)
+        prev = np.inf
+        for idx in range(chunk * per, min(n, (chunk + 1) * per)):
+            k = idx % dims[2]
+            j = (idx // dims[2]) % dims[1]
+            i = idx // (dims[1] * dims[2])
+            px = origin[0] + i * h
+            py = origin[1] + j * h
+            pz = origin[2] + k * h
+            # the previous point is h away (same row): the minimum is at most prev + h, which
+            # prunes most of the descent (1-Lipschitz)
+            best = prev + h * (1.0 + 1e-9) + 1e-12 if k > 0 else np.inf
+            sp = 1
+            stack[0] = 0
+            while sp > 0:
+                sp -= 1
+                m = stack[sp]
+                dx, dy, dz = px - nodes[m, 0], py - nodes[m, 1], pz - nodes[m, 2]
+                d = math.sqrt(dx * dx + dy * dy + dz * dz) - nodes[m, 3]
+                if d >= best:
+                    continue
+                if left[m] < 0:
+                    best = d
+                    continue
+                # nearer child on top: it usually lowers the bound that prunes the other
+                a, b = left[m], right[m]
+                ax, ay, az = px - nodes[a, 0], py - nodes[a, 1], pz - nodes[a, 2]
+                bx, by, bz = px - nodes[b, 0], py - nodes[b, 1], pz - nodes[b, 2]
+                da = math.sqrt(ax * ax + ay * ay + az * az) - nodes[a, 3]
+                db = math.sqrt(bx * bx + by * by + bz * bz) - nodes[b, 3]
+                if da < db:
+                    a, b = b, a
+                stack[sp] = a
+                stack[sp + 1] = b
+                sp += 2
+            prev = best
+            out[idx] = np.float32(max(best, 0.0) * (1.0 - 1e-6) - 1e-7)
+    return out
+
+
+def distance_grid(tree: SphereTree) -> DistanceGrid:
+    """The distance grid of a body whose leaves are ``tree``'s (see GRID_*)."""
+    leaves = tree.leaves
+    box = np.array(
+        [(leaves[:, :3] - leaves[:, 3:]).min(axis=0), (leaves[:, :3] + leaves[:, 3:]).max(axis=0)]
+    )
+    lo, hi = box[0] - GRID_MARGIN, box[1] + GRID_MARGIN
+    h = max(GRID_STEP, float(np.prod(hi - lo) / GRID_POINTS) ** (1.0 / 3.0))
+    dims = (np.ceil((hi - lo) / h).astype(np.int64) + 1).astype(np.int64)
+    values = _grid_lower_bounds(lo, h, dims, tree.nodes, tree.left, tree.right)
+    return DistanceGrid(lo, h, dims, values, box)
+
+
 # ---------------------------------------------------------------------------------- cache
 def _cache_dir() -> Path | None:
     base = os.environ.get("ROBOCELL_CACHE") or os.path.join(
@@ -465,6 +549,33 @@ def _shape_key(shape: Shape) -> bytes:
             + np.ascontiguousarray(shape.triangles).tobytes()
         )
     return repr(shape).encode()
+
+
+def body_grid(tree: SphereTree) -> DistanceGrid:
+    """:func:`distance_grid`, cached on disk by the tree's content."""
+    h = hashlib.sha1(
+        f"grid v{SPHERE_MODEL_VERSION}.2 {GRID_POINTS} {GRID_STEP} {GRID_MARGIN}".encode()
+    )
+    h.update(np.ascontiguousarray(tree.nodes).tobytes())
+    folder = _cache_dir()
+    path = None if folder is None else folder / f"grid-{h.hexdigest()}.npz"
+    if path is not None and path.is_file():
+        try:
+            with np.load(path) as d:
+                return DistanceGrid(d["origin"], float(d["h"]), d["dims"], d["values"], d["box"])
+        except (OSError, KeyError, ValueError):
+            pass  # a damaged cache entry is rebuilt
+    grid = distance_grid(tree)
+    if path is not None:
+        try:
+            tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
+            np.savez(
+                tmp, origin=grid.origin, h=grid.h, dims=grid.dims, values=grid.values, box=grid.box
+            )
+            os.replace(tmp, path)
+        except OSError:
+            pass
+    return grid
 
 
 def body_tree(

@@ -1,0 +1,88 @@
+"""The kernel's exact test of solid primitives (GJK) against coal's verdict, on random pairs and
+on pairs placed a hair's breadth apart or into each other."""
+
+import coal
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from robocell.scene import _kernels as K
+
+
+def _random_primitive(rng: np.random.Generator):  # type: ignore[no-untyped-def]
+    kind = int(rng.integers(3))
+    if kind == K.OBS_BOX:
+        dims = rng.uniform(0.01, 0.3, 3)
+        geom = coal.Box(*(2 * dims))
+    elif kind == K.OBS_CYLINDER:
+        dims = np.array([rng.uniform(0.01, 0.2), rng.uniform(0.01, 0.3), 0.0])
+        geom = coal.Cylinder(dims[0], 2 * dims[1])
+    else:
+        dims = np.array([rng.uniform(0.01, 0.2), 0.0, 0.0])
+        geom = coal.Sphere(dims[0])
+    T = np.eye(4)
+    T[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+    T[:3, 3] = rng.uniform(-0.3, 0.3, 3)
+    return kind, T, dims, geom
+
+
+def _tf(T):  # type: ignore[no-untyped-def]
+    return coal.Transform3s(T[:3, :3], T[:3, 3])
+
+
+def _coal_collides(ga, Ta, gb, Tb) -> bool:  # type: ignore[no-untyped-def]
+    req = coal.CollisionRequest()
+    req.enable_contact = True
+    return coal.collide(ga, _tf(Ta), gb, _tf(Tb), req, coal.CollisionResult()) > 0
+
+
+def _coal_distance(ga, Ta, gb, Tb):  # type: ignore[no-untyped-def]
+    res = coal.DistanceResult()
+    d = coal.distance(ga, _tf(Ta), gb, _tf(Tb), coal.DistanceRequest(), res)
+    return d, np.array(res.getNearestPoint1()), np.array(res.getNearestPoint2())
+
+
+def _verdicts_agree(a, b) -> None:  # type: ignore[no-untyped-def]
+    ka, Ta, da, ga = a
+    kb, Tb, db, gb = b
+    r = K.gjk_intersect(ka, Ta, da, kb, Tb, db)
+    assert r != K.GJK_UNSURE
+    if r == K.GJK_FREE:
+        # a pair called free is free for coal
+        assert not _coal_collides(ga, Ta, gb, Tb)
+    else:
+        # a pair called colliding is, or is closer than the tolerance
+        assert _coal_collides(ga, Ta, gb, Tb) or _coal_distance(ga, Ta, gb, Tb)[0] <= 2e-6
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_random_pairs_match_coal(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    hits = 0
+    for _ in range(500):
+        a, b = _random_primitive(rng), _random_primitive(rng)
+        _verdicts_agree(a, b)
+        hits += K.gjk_intersect(a[0], a[1], a[2], b[0], b[1], b[2]) == K.GJK_HIT
+    assert 50 < hits < 450  # both verdicts are exercised
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_pairs_a_hair_apart_or_into_each_other(seed: int) -> None:
+    """B is moved along the closest points' line to a gap of −0.1 mm … +0.1 mm."""
+    rng = np.random.default_rng(100 + seed)
+    free = hit = 0
+    for _ in range(300):
+        a, b = _random_primitive(rng), _random_primitive(rng)
+        d, pa, pb = _coal_distance(a[3], a[1], b[3], b[1])
+        if d <= 1e-4:
+            continue  # already overlapping: the normal is not reliable
+        n = (pb - pa) / d
+        gap = rng.uniform(-1e-4, 1e-4)
+        Tb = b[1].copy()
+        Tb[:3, 3] += (gap - d) * n
+        moved = (b[0], Tb, b[2], b[3])
+        _verdicts_agree(a, moved)
+        r = K.gjk_intersect(a[0], a[1], a[2], moved[0], Tb, moved[2])
+        free += r == K.GJK_FREE
+        hit += r == K.GJK_HIT
+    assert free > 20 and hit > 20
