@@ -82,3 +82,30 @@ def test_distance_grid_is_a_lower_bound_of_the_distance_to_the_leaves():
     near = (true < 0.02) & (np.abs(P - g).max(axis=1) < 0.5 * grid.h + 1e-12)
     assert near.sum() > 50
     assert np.all(true[near] - bound[near] <= np.sqrt(3) * grid.h + 1e-9)
+
+
+def test_every_point_of_a_triangle_is_in_a_leaf_that_lists_the_triangle():
+    """What makes the kernel's triangle tests exact: where two surfaces cross, a leaf of each
+    covers the crossing point and lists the triangle it is on."""
+    V, F = triangulate(Cylinder(0.05, 0.3), segments=24)
+    T = np.eye(4)
+    T[:3, 3] = (0.02, -0.01, 0.1)
+    tree = shape_tree(Mesh(V, F), T)
+    assert tree.meshes_only and len(tree.tris) == len(F)
+    assert np.allclose(tree.tris, V[F] + T[:3, 3])
+    rng = np.random.default_rng(4)
+    leaf_nodes = np.flatnonzero(tree.left < 0)
+    for f in rng.choice(len(F), 30, replace=False):
+        u = rng.random((40, 2))
+        u[u.sum(axis=1) > 1] = 1 - u[u.sum(axis=1) > 1]
+        a, b, c = tree.tris[f]
+        P = a + u[:, :1] * (b - a) + u[:, 1:] * (c - a)
+        for p in P:
+            inside = leaf_nodes[
+                np.linalg.norm(tree.nodes[leaf_nodes, :3] - p, axis=1)
+                <= tree.nodes[leaf_nodes, 3] + 1e-12
+            ]
+            assert any(f in tree.tri_ids[tree.tri_start[m] : tree.tri_start[m + 1]] for m in inside)
+    # a primitive's leaves list no triangles
+    box = shape_tree(Box((0.1, 0.2, 0.05)))
+    assert not box.meshes_only and box.tri_start[-1] == 0

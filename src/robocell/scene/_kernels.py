@@ -17,6 +17,9 @@ from robocell.kinematics._kernels import fk_into
 
 FREE, HIT, UNSURE = 0, 1, 2
 OBS_BOX, OBS_CYLINDER, OBS_SPHERE = 0, 1, 2
+# a triangle in the exact test: its "pose" (3×4) holds the vertices as columns 0–2 and the
+# centroid as column 3
+OBS_TRIANGLE = 3
 
 
 @njit(cache=True, inline="always")
@@ -128,6 +131,15 @@ GJK_FREE, GJK_HIT, GJK_UNSURE = 0, 1, 2
 def _support(kind, T, dims, dx, dy, dz, out, sign):  # type: ignore[no-untyped-def]
     """out += sign · the point of primitive (kind, T (≥3×4), dims) farthest along sign·d."""
     dx, dy, dz = sign * dx, sign * dy, sign * dz
+    if kind == OBS_TRIANGLE:
+        best, k = -np.inf, 0
+        for c in range(3):
+            v = T[0, c] * dx + T[1, c] * dy + T[2, c] * dz
+            if v > best:
+                best, k = v, c
+        for i in range(3):
+            out[i] += sign * T[i, k]
+        return
     lx = T[0, 0] * dx + T[1, 0] * dy + T[2, 0] * dz
     ly = T[0, 1] * dx + T[1, 1] * dy + T[2, 1] * dz
     lz = T[0, 2] * dx + T[1, 2] * dy + T[2, 2] * dz
@@ -330,6 +342,80 @@ def _exact_self(a, b, TB, prim_start, prim_kind, prim_T, prim_dims):  # type: ig
     return GJK_UNSURE if unsure else GJK_FREE
 
 
+EXACT_BUDGET = 16  # triangle tests one pair may make before it is left to coal
+TOUCH = 3  # a pair's leaves touch and the kernel cannot settle it (the caller decides)
+
+
+@njit(cache=True, inline="always")
+def _triangle_into(R, t, V, out):  # type: ignore[no-untyped-def]
+    """out (3×4): triangle V (3, 3) moved by (R, t), vertices as columns, centroid last."""
+    for c in range(3):
+        for i in range(3):
+            out[i, c] = R[i, 0] * V[c, 0] + R[i, 1] * V[c, 1] + R[i, 2] * V[c, 2] + t[i]
+    for i in range(3):
+        out[i, 3] = (out[i, 0] + out[i, 1] + out[i, 2]) / 3.0
+
+
+@njit(cache=True)
+def _mesh_vs_obstacle(
+    b,
+    root,
+    nodes,
+    left,
+    right,
+    TB,
+    W,
+    stamp,
+    cur,
+    kind,
+    To,
+    dims,
+    node_tri_start,
+    node_tri_ids,
+    tri_V,
+    tri_sphere,
+    stack,
+):  # type: ignore[no-untyped-def]
+    """Body b's triangles (in the leaves that touch the obstacle) against a solid obstacle
+    primitive: GJK_HIT, GJK_FREE, or GJK_UNSURE (a test undecided, or over the budget)."""
+    R = TB[b, :, :3]
+    t = TB[b, :, 3]
+    tri = np.empty((3, 4))
+    tests = 0
+    unsure = False
+    sp = 1
+    stack[0] = root
+    while sp > 0:
+        sp -= 1
+        n = stack[sp]
+        _centre(n, b, TB, nodes, W, stamp, cur)
+        if _obstacle_distance(W[n, 0], W[n, 1], W[n, 2], kind, To, dims) > nodes[n, 3]:
+            continue
+        if left[n] >= 0:
+            stack[sp] = left[n]
+            stack[sp + 1] = right[n]
+            sp += 2
+            continue
+        for k in range(node_tri_start[n], node_tri_start[n + 1]):
+            f = node_tri_ids[k]
+            sx, sy, sz = tri_sphere[f, 0], tri_sphere[f, 1], tri_sphere[f, 2]
+            x = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
+            y = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
+            z = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
+            if _obstacle_distance(x, y, z, kind, To, dims) > tri_sphere[f, 3]:
+                continue
+            tests += 1
+            if tests > EXACT_BUDGET:
+                return GJK_UNSURE
+            _triangle_into(R, t, tri_V[f], tri)
+            r = gjk_intersect(OBS_TRIANGLE, tri, dims, kind, To, dims)
+            if r == GJK_HIT:
+                return GJK_HIT
+            if r == GJK_UNSURE:
+                unsure = True
+    return GJK_UNSURE if unsure else GJK_FREE
+
+
 @njit(cache=True, inline="always")
 def _field_bound(
     x,
@@ -396,6 +482,16 @@ def _tree_touches_sphere(root, nodes, left, right, x, y, z, r, stack):  # type: 
     return False
 
 
+@njit(cache=True, inline="always")
+def _triangle_copy(V, out):  # type: ignore[no-untyped-def]
+    """out (3×4): triangle V (3, 3) as columns, centroid last."""
+    for c in range(3):
+        for i in range(3):
+            out[i, c] = V[c, i]
+    for i in range(3):
+        out[i, 3] = (V[0, i] + V[1, i] + V[2, i]) / 3.0
+
+
 @njit(cache=True)
 def _tree_near_field(
     f,
@@ -416,12 +512,21 @@ def _tree_near_field(
     prim_kind,
     prim_T,
     prim_dims,
+    body_mesh,
+    node_tri_start,
+    node_tri_ids,
+    tri_V,
+    tri_sphere,
     stack,
     stack2,
 ):  # type: ignore[no-untyped-def]
-    """Whether a leaf of body b's tree may touch body f, by descending b's tree against f's
-    distance field (one tree, not two). A leaf the field cannot clear is settled by f's own
-    tree (grids), or touches (primitives: their distance is exact)."""
+    """Body b against body f by descending b's tree against f's distance field (one tree, not
+    two): GJK_FREE, GJK_HIT or TOUCH (leaves may touch; not settled here).
+
+    At a leaf of b the field cannot clear: if b is all triangles and f is primitives or all
+    triangles, the leaf's triangles are tested exactly (GJK) against f's primitives or against
+    the triangles of f's leaves near them; otherwise f's own tree is descended with the leaf's
+    sphere, and a touch is reported."""
     # b's frame to f's: R = Rf^T Rb, t = Rf^T (tb - tf)
     R = np.empty((3, 3))
     t = np.empty(3)
@@ -435,7 +540,12 @@ def _tree_near_field(
             + TB[f, 1, i] * (TB[b, 1, 3] - TB[f, 1, 3])
             + TB[f, 2, i] * (TB[b, 2, 3] - TB[f, 2, 3])
         )
-    exact = field_kind[f] == FIELD_PRIMITIVES
+    exact_field = field_kind[f] == FIELD_PRIMITIVES
+    settle = body_mesh[b] and (exact_field or body_mesh[f])
+    tri_b = np.empty((3, 4))
+    tri_f = np.empty((3, 4))
+    tests = 0
+    touch = False
     sp = 1
     stack[0] = body_root[b]
     while sp > 0:
@@ -464,16 +574,108 @@ def _tree_near_field(
         )
         if d > nodes[n, 3]:
             continue
-        if left[n] < 0:
-            if exact or _tree_touches_sphere(
+        if left[n] >= 0:
+            stack[sp] = left[n]
+            stack[sp + 1] = right[n]
+            sp += 2
+            continue
+        if not settle:
+            if exact_field or _tree_touches_sphere(
                 body_root[f], nodes, left, right, x, y, z, nodes[n, 3], stack2
             ):
-                return True
+                return TOUCH
             continue
-        stack[sp] = left[n]
-        stack[sp + 1] = right[n]
-        sp += 2
-    return False
+        for kb in range(node_tri_start[n], node_tri_start[n + 1]):
+            tb = node_tri_ids[kb]
+            sx, sy, sz, rb = (
+                tri_sphere[tb, 0],
+                tri_sphere[tb, 1],
+                tri_sphere[tb, 2],
+                tri_sphere[tb, 3],
+            )
+            cx = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
+            cy = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
+            cz = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
+            if (
+                _field_bound(
+                    cx,
+                    cy,
+                    cz,
+                    f,
+                    field_kind,
+                    grid_origin,
+                    grid_box,
+                    grid_h,
+                    grid_dims,
+                    grid_off,
+                    grid_values,
+                    prim_start,
+                    prim_kind,
+                    prim_T,
+                    prim_dims,
+                )
+                > rb
+            ):
+                continue
+            placed = False
+            if exact_field:
+                for p in range(prim_start[f], prim_start[f + 1]):
+                    if _obstacle_distance(cx, cy, cz, prim_kind[p], prim_T[p], prim_dims[p]) > rb:
+                        continue
+                    if not placed:
+                        _triangle_into(R, t, tri_V[tb], tri_b)
+                        placed = True
+                    tests += 1
+                    if tests > EXACT_BUDGET:
+                        return TOUCH
+                    r = gjk_intersect(
+                        OBS_TRIANGLE, tri_b, prim_dims[p], prim_kind[p], prim_T[p], prim_dims[p]
+                    )
+                    if r == GJK_HIT:
+                        return GJK_HIT
+                    if r == GJK_UNSURE:
+                        touch = True
+                continue
+            # the triangles of f's leaves near this triangle
+            sp2 = 1
+            stack2[0] = body_root[f]
+            while sp2 > 0:
+                sp2 -= 1
+                m = stack2[sp2]
+                dx, dy, dz = cx - nodes[m, 0], cy - nodes[m, 1], cz - nodes[m, 2]
+                rr = rb + nodes[m, 3]
+                if dx * dx + dy * dy + dz * dz > rr * rr:
+                    continue
+                if left[m] >= 0:
+                    stack2[sp2] = left[m]
+                    stack2[sp2 + 1] = right[m]
+                    sp2 += 2
+                    continue
+                for kf in range(node_tri_start[m], node_tri_start[m + 1]):
+                    tf = node_tri_ids[kf]
+                    dx, dy, dz = (
+                        cx - tri_sphere[tf, 0],
+                        cy - tri_sphere[tf, 1],
+                        cz - tri_sphere[tf, 2],
+                    )
+                    rr = rb + tri_sphere[tf, 3]
+                    if dx * dx + dy * dy + dz * dz > rr * rr:
+                        continue
+                    if not placed:
+                        _triangle_into(R, t, tri_V[tb], tri_b)
+                        placed = True
+                    tests += 1
+                    if tests > EXACT_BUDGET:
+                        return TOUCH
+                    _triangle_copy(tri_V[tf], tri_f)
+                    r = gjk_intersect(
+                        OBS_TRIANGLE, tri_b, tri_sphere[tb], OBS_TRIANGLE, tri_f, tri_sphere[tf]
+                    )
+                    if r == GJK_HIT:
+                        return GJK_HIT
+                    if r == GJK_UNSURE:
+                        touch = True
+    return TOUCH if touch else GJK_FREE
 
 
 @njit(cache=True)
@@ -504,6 +706,11 @@ def _classify_state(  # type: ignore[no-untyped-def]
     prim_kind,
     prim_T,
     prim_dims,
+    body_mesh,
+    node_tri_start,
+    node_tri_ids,
+    tri_V,
+    tri_sphere,
     W,
     stamp,
     Wi,
@@ -556,10 +763,39 @@ def _classify_state(  # type: ignore[no-untyped-def]
                     < inner[s, 3]
                 ):
                     return HIT
-        if field_kind[b] == FIELD_PRIMITIVES and obs_inner_ok[o]:
-            r = _exact_world(
-                b, obs_kind[o], obs_T[o], obs_dims[o], TB, prim_start, prim_kind, prim_T, prim_dims
-            )
+        if obs_inner_ok[o] and (field_kind[b] == FIELD_PRIMITIVES or body_mesh[b]):
+            if field_kind[b] == FIELD_PRIMITIVES:
+                r = _exact_world(
+                    b,
+                    obs_kind[o],
+                    obs_T[o],
+                    obs_dims[o],
+                    TB,
+                    prim_start,
+                    prim_kind,
+                    prim_T,
+                    prim_dims,
+                )
+            else:
+                r = _mesh_vs_obstacle(
+                    b,
+                    body_root[b],
+                    nodes,
+                    left,
+                    right,
+                    TB,
+                    W,
+                    stamp,
+                    cur,
+                    obs_kind[o],
+                    obs_T[o],
+                    obs_dims[o],
+                    node_tri_start,
+                    node_tri_ids,
+                    tri_V,
+                    tri_sphere,
+                    stack,
+                )
             if r == GJK_HIT:
                 return HIT
             if r == GJK_FREE:
@@ -598,10 +834,11 @@ def _classify_state(  # type: ignore[no-untyped-def]
                     return HIT
         m = pair_field[k]
         if m < 0:
-            touch = _trees_touch(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, stack2)
+            if not _trees_touch(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, stack2):
+                continue
         else:
             f, d = (a, b) if m == 0 else (b, a)
-            touch = _tree_near_field(
+            r = _tree_near_field(
                 f,
                 d,
                 TB,
@@ -620,11 +857,18 @@ def _classify_state(  # type: ignore[no-untyped-def]
                 prim_kind,
                 prim_T,
                 prim_dims,
+                body_mesh,
+                node_tri_start,
+                node_tri_ids,
+                tri_V,
+                tri_sphere,
                 stack,
                 stack3,
             )
-        if not touch:
-            continue
+            if r == GJK_FREE:
+                continue
+            if r == GJK_HIT:
+                return HIT
         if field_kind[a] == FIELD_PRIMITIVES and field_kind[b] == FIELD_PRIMITIVES:
             r = _exact_self(a, b, TB, prim_start, prim_kind, prim_T, prim_dims)
             if r == GJK_HIT:
@@ -680,6 +924,11 @@ def _classify_range(  # type: ignore[no-untyped-def]
     prim_kind,
     prim_T,
     prim_dims,
+    body_mesh,
+    node_tri_start,
+    node_tri_ids,
+    tri_V,
+    tri_sphere,
     W,
     stamp,
     Wi,
@@ -742,6 +991,11 @@ def _classify_range(  # type: ignore[no-untyped-def]
             prim_kind,
             prim_T,
             prim_dims,
+            body_mesh,
+            node_tri_start,
+            node_tri_ids,
+            tri_V,
+            tri_sphere,
             W,
             stamp,
             Wi,
@@ -752,6 +1006,131 @@ def _classify_range(  # type: ignore[no-untyped-def]
             stack3,
             row,
         )
+
+
+@njit(cache=True)
+def classify_serial(  # type: ignore[no-untyped-def]
+    qs,
+    group_idx,
+    q_base,
+    joints,
+    root,
+    parent,
+    child,
+    origin,
+    jtype,
+    axis,
+    var,
+    mult,
+    offset,
+    body_link,
+    body_T,
+    body_root,
+    nodes,
+    left,
+    right,
+    inner_start,
+    inner,
+    obs_kind,
+    obs_T,
+    obs_dims,
+    obs_sphere,
+    obs_inner_ok,
+    world_pairs,
+    self_pairs,
+    pair_field,
+    field_kind,
+    grid_origin,
+    grid_box,
+    grid_h,
+    grid_dims,
+    grid_off,
+    grid_values,
+    prim_start,
+    prim_kind,
+    prim_T,
+    prim_dims,
+    body_mesh,
+    node_tri_start,
+    node_tri_ids,
+    tri_V,
+    tri_sphere,
+    W,
+    stamp,
+    Wi,
+    stamp_i,
+    T,
+    epoch,
+    record_flags,
+    chunk,
+):
+    """:func:`classify` in the calling thread, for batches of at most one chunk: a parallel
+    function costs several microseconds more per call even when it runs serially (measured)."""
+    N = qs.shape[0]
+    out = np.empty(N, np.int8)
+    P = world_pairs.shape[0] + self_pairs.shape[0]
+    flags = np.zeros((N if record_flags else 0, P), np.bool_)
+    scratch = np.zeros((1, 0 if record_flags else P), np.bool_)
+    _classify_range(
+        0,
+        N,
+        qs,
+        group_idx,
+        q_base,
+        joints,
+        root,
+        parent,
+        child,
+        origin,
+        jtype,
+        axis,
+        var,
+        mult,
+        offset,
+        body_link,
+        body_T,
+        body_root,
+        nodes,
+        left,
+        right,
+        inner_start,
+        inner,
+        obs_kind,
+        obs_T,
+        obs_dims,
+        obs_sphere,
+        obs_inner_ok,
+        world_pairs,
+        self_pairs,
+        pair_field,
+        field_kind,
+        grid_origin,
+        grid_box,
+        grid_h,
+        grid_dims,
+        grid_off,
+        grid_values,
+        prim_start,
+        prim_kind,
+        prim_T,
+        prim_dims,
+        body_mesh,
+        node_tri_start,
+        node_tri_ids,
+        tri_V,
+        tri_sphere,
+        W[0],
+        stamp[0],
+        Wi[0],
+        stamp_i[0],
+        T[0],
+        epoch,
+        flags,
+        record_flags,
+        scratch[0],
+        out,
+    )
+    return out, flags
 
 
 @njit(cache=True, parallel=True)
@@ -796,6 +1175,11 @@ def classify(  # type: ignore[no-untyped-def]
     prim_kind,
     prim_T,
     prim_dims,
+    body_mesh,
+    node_tri_start,
+    node_tri_ids,
+    tri_V,
+    tri_sphere,
     W,
     stamp,
     Wi,
@@ -861,6 +1245,11 @@ def classify(  # type: ignore[no-untyped-def]
             prim_kind,
             prim_T,
             prim_dims,
+            body_mesh,
+            node_tri_start,
+            node_tri_ids,
+            tri_V,
+            tri_sphere,
             W[0],
             stamp[0],
             Wi[0],
@@ -918,6 +1307,11 @@ def classify(  # type: ignore[no-untyped-def]
             prim_kind,
             prim_T,
             prim_dims,
+            body_mesh,
+            node_tri_start,
+            node_tri_ids,
+            tri_V,
+            tri_sphere,
             W[t],
             stamp[t],
             Wi[t],

@@ -23,7 +23,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +35,7 @@ from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere, triangu
 # [m] leaf cell edge: sets how close two bodies can be and still be proven free. 3 mm left
 # 12–13 % of random UR5 states unsure against 15–17 % at 4 mm and 19–22 % at 8 mm (measured).
 LEAF_SIZE = 0.003
-SPHERE_MODEL_VERSION = 8  # bump when the construction changes: cached trees are then rebuilt
+SPHERE_MODEL_VERSION = 9  # bump when the construction changes: cached trees are then rebuilt
 
 
 @dataclass
@@ -44,12 +44,20 @@ class SphereTree:
 
     ``nodes`` (M, 4) with ``left``/``right`` child indices (−1 at leaves); node 0 is the root.
     ``inner`` (K, 4) spheres inside the solid.
+    ``tris`` (T, 3, 3): the triangles of the body's meshes; the leaf at node m covers pieces of
+    triangles ``tri_ids[tri_start[m]:tri_start[m + 1]]`` (empty for a primitive's leaves).
+    ``meshes_only``: every shape of the body is a mesh, so its triangles are all of it (the
+    kernel can then settle its contacts exactly).
     """
 
     nodes: NDArray[np.float64]
     left: NDArray[np.int64]
     right: NDArray[np.int64]
     inner: NDArray[np.float64]
+    tris: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    tri_start: NDArray[np.int64] = field(default_factory=lambda: np.zeros(1, np.int64))
+    tri_ids: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    meshes_only: bool = False
 
     @property
     def leaves(self) -> NDArray[np.float64]:
@@ -120,10 +128,11 @@ def _clip(poly, n, axis, value, keep_below, out):  # type: ignore[no-untyped-def
 @njit(cache=True)
 def _cell_points(V, F, lo, h, n):  # type: ignore[no-untyped-def]
     """For every triangle and every grid cell its bounding box spans, the vertices of the
-    triangle clipped to the cell. Returns (cell codes (K,), points (K, 3))."""
+    triangle clipped to the cell. Returns (cell codes (K,), points (K, 3), triangle (K,))."""
     cap = 16 * F.shape[0] + 1024
     codes = np.empty(cap, np.int64)
     pts = np.empty((cap, 3))
+    tri_of = np.empty(cap, np.int64)
     k = 0
     poly = np.empty((12, 3))
     tmp = np.empty((12, 3))
@@ -154,30 +163,40 @@ def _cell_points(V, F, lo, h, n):  # type: ignore[no-untyped-def]
                         cap *= 2
                         codes2 = np.empty(cap, np.int64)
                         pts2 = np.empty((cap, 3))
+                        tri2 = np.empty(cap, np.int64)
                         codes2[:k] = codes[:k]
                         pts2[:k] = pts[:k]
-                        codes, pts = codes2, pts2
+                        tri2[:k] = tri_of[:k]
+                        codes, pts, tri_of = codes2, pts2, tri2
                     code = (i * n[1] + j) * n[2] + l
                     for p in range(m):
                         codes[k] = code
                         pts[k] = poly[p]
+                        tri_of[k] = f
                         k += 1
-    return codes[:k], pts[:k]
+    return codes[:k], pts[:k], tri_of[:k]
 
 
 def mesh_surface_leaves(
     V: NDArray[np.float64], F: NDArray[np.int64], h: float
-) -> NDArray[np.float64]:
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
     """Leaf spheres covering a triangle surface: one per occupied grid cell of edge h, around
-    the pieces of the triangles clipped to that cell (a ball contains their convex hulls)."""
+    the pieces of the triangles clipped to that cell (a ball contains their convex hulls).
+    Returns (leaves (L, 4), start (L + 1,), triangles (K,)): leaf l covers pieces of triangles
+    ``triangles[start[l]:start[l + 1]]``."""
     V = np.ascontiguousarray(V, dtype=float)
     lo = V.min(axis=0) - 1e-9
     n = np.floor((V.max(axis=0) - lo) / h).astype(np.int64) + 2
-    codes, pts = _cell_points(V, np.ascontiguousarray(F, dtype=np.int64), lo, h, n)
+    codes, pts, tri = _cell_points(V, np.ascontiguousarray(F, dtype=np.int64), lo, h, n)
     order = np.argsort(codes, kind="stable")
-    codes, pts = codes[order], pts[order]
+    codes, pts, tri = codes[order], pts[order], tri[order]
     starts = np.concatenate([[0], np.flatnonzero(np.diff(codes)) + 1, [len(codes)]])
-    return _group_balls(pts, np.arange(len(pts)), starts)
+    leaves = _group_balls(pts, np.arange(len(pts)), starts)
+    # the triangles of each cell, in the cells' (ascending code) order
+    key = np.unique(codes * len(F) + tri)
+    cell, ids = key // len(F), key % len(F)
+    tri_start = np.concatenate([[0], np.flatnonzero(np.diff(cell)) + 1, [len(cell)]])
+    return leaves, tri_start.astype(np.int64), ids.astype(np.int64)
 
 
 def signed_distance(shape: Shape, P: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -346,12 +365,14 @@ def mesh_inner(
 @njit(cache=True)
 def _build_tree(leaves):  # type: ignore[no-untyped-def]
     """Binary tree over leaf spheres, median split along the widest axis of the centres; a
-    node's sphere encloses all leaves below it (centred on their bounding box)."""
+    node's sphere encloses all leaves below it (centred on their bounding box). Also returns
+    which leaf sphere each tree leaf is."""
     L = leaves.shape[0]
     M = 2 * L - 1
     nodes = np.empty((M, 4))
     left = np.full(M, -1, np.int64)
     right = np.full(M, -1, np.int64)
+    leaf_of = np.full(M, -1, np.int64)
     perm = np.arange(L)
     stack = np.empty((64, 3), np.int64)  # (start, end, node)
     stack[0] = (0, L, 0)
@@ -380,6 +401,7 @@ def _build_tree(leaves):  # type: ignore[no-untyped-def]
         nodes[me, 0], nodes[me, 1], nodes[me, 2], nodes[me, 3] = c[0], c[1], c[2], r
         if b - a == 1:
             nodes[me] = leaves[perm[a]]
+            leaf_of[me] = perm[a]
             continue
         axis = 0
         for i in range(1, 3):
@@ -399,16 +421,87 @@ def _build_tree(leaves):  # type: ignore[no-untyped-def]
         stack[sp] = (a, mid, left[me])
         stack[sp + 1] = (mid, b, right[me])
         sp += 2
-    return nodes, left, right
+    return nodes, left, right, leaf_of
 
 
 def build_tree(
     leaves: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
-    """A binary tree over leaf spheres (node 0 is the root; leaves have left = right = −1)."""
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """A binary tree over leaf spheres (node 0 is the root; leaves have left = right = −1), and
+    the index of the leaf sphere each node is (−1 for inner nodes)."""
     if len(leaves) == 0:
-        return np.zeros((0, 4)), np.zeros(0, np.int64), np.zeros(0, np.int64)
+        e = np.zeros(0, np.int64)
+        return np.zeros((0, 4)), e, e, e
     return _build_tree(np.ascontiguousarray(leaves, dtype=float))  # type: ignore[no-any-return]
+
+
+@dataclass
+class _Parts:
+    """One shape's leaves and inner spheres in its owner's frame, and its triangles (meshes)."""
+
+    leaves: NDArray[np.float64]
+    tri_start: NDArray[np.int64]  # (L + 1,)
+    tri_ids: NDArray[np.int64]
+    tris: NDArray[np.float64]  # (T, 3, 3)
+    inner: NDArray[np.float64]
+    mesh: bool
+
+
+def _shape_parts(shape: Shape, T: NDArray[np.float64], leaf_size: float) -> _Parts:
+    def move(S: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.c_[S[:, :3] @ T[:3, :3].T + T[:3, 3], S[:, 3]] if len(S) else S.reshape(0, 4)
+
+    if isinstance(shape, Mesh):
+        V, F = np.asarray(shape.vertices, float), np.asarray(shape.triangles, np.int64)
+        leaves, start, ids = mesh_surface_leaves(V, F, leaf_size)
+        inner = mesh_inner(V, F)
+        tris = (V @ T[:3, :3].T + T[:3, 3])[F]
+        return _Parts(move(leaves), start, ids, tris, move(inner), True)
+    leaves, inside = primitive_leaves(shape, leaf_size * math.sqrt(3.0) / 2.0)
+    inner = _prune_inner(leaves[inside], 24)
+    return _Parts(
+        move(leaves),
+        np.zeros(len(leaves) + 1, np.int64),
+        np.zeros(0, np.int64),
+        np.zeros((0, 3, 3)),
+        move(inner),
+        False,
+    )
+
+
+def _assemble(parts: list[_Parts]) -> SphereTree:
+    """One body's tree over the leaves of all its shapes, with each leaf's triangles."""
+    leaves = np.vstack([p.leaves for p in parts]) if parts else np.zeros((0, 4))
+    inner = [p.inner for p in parts if len(p.inner)]
+    # the shapes' leaf triangle lists, with triangle ids offset into the body's list
+    counts, ids, tris = [], [], []
+    n_tris = 0
+    for p in parts:
+        counts.append(np.diff(p.tri_start))
+        ids.append(p.tri_ids + n_tris)
+        tris.append(p.tris)
+        n_tris += len(p.tris)
+    leaf_count = np.concatenate(counts) if counts else np.zeros(0, np.int64)
+    leaf_start = np.concatenate([[0], np.cumsum(leaf_count)]).astype(np.int64)
+    leaf_ids = np.concatenate(ids) if ids else np.zeros(0, np.int64)
+    nodes, left, right, leaf_of = build_tree(leaves)
+    node_count = np.zeros(len(nodes), np.int64)
+    is_leaf = leaf_of >= 0
+    node_count[is_leaf] = leaf_count[leaf_of[is_leaf]]
+    tri_start = np.concatenate([[0], np.cumsum(node_count)]).astype(np.int64)
+    # node m's triangles are leaf_ids[leaf_start[leaf_of[m]] + 0, 1, …]
+    shift = np.repeat(leaf_start[leaf_of[is_leaf]] - tri_start[:-1][is_leaf], node_count[is_leaf])
+    tri_ids = leaf_ids[np.arange(int(tri_start[-1])) + shift].astype(np.int64)
+    return SphereTree(
+        nodes,
+        left,
+        right,
+        np.vstack(inner) if inner else np.zeros((0, 4)),
+        np.concatenate(tris) if tris else np.zeros((0, 3, 3)),
+        tri_start,
+        tri_ids,
+        bool(parts) and all(p.mesh for p in parts),
+    )
 
 
 def shape_tree(
@@ -416,33 +509,7 @@ def shape_tree(
 ) -> SphereTree:
     """The sphere tree and inner spheres of one shape placed at ``T_owner_shape``."""
     T = np.eye(4) if T_owner_shape is None else np.asarray(T_owner_shape, float)
-    if isinstance(shape, Mesh):
-        V, F = np.asarray(shape.vertices), np.asarray(shape.triangles)
-        leaves = mesh_surface_leaves(V, F, leaf_size)
-        inner = mesh_inner(V, F)
-    else:
-        leaves, inside = primitive_leaves(shape, leaf_size * math.sqrt(3.0) / 2.0)
-        inner = _prune_inner(leaves[inside], 24)
-    return _place(leaves, inner, T)
-
-
-def _place(
-    leaves: NDArray[np.float64], inner: NDArray[np.float64], T: NDArray[np.float64]
-) -> SphereTree:
-    def move(S: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.c_[S[:, :3] @ T[:3, :3].T + T[:3, 3], S[:, 3]] if len(S) else S.reshape(0, 4)
-
-    nodes, left, right = build_tree(move(leaves))
-    return SphereTree(nodes, left, right, move(inner))
-
-
-def merge_trees(trees: list[SphereTree]) -> SphereTree:
-    """One tree over several shapes' leaves (one body)."""
-    leaves = [t.leaves for t in trees if len(t.nodes)]
-    inner = [t.inner for t in trees if len(t.inner)]
-    all_leaves = np.vstack(leaves) if leaves else np.zeros((0, 4))
-    nodes, left, right = build_tree(all_leaves)
-    return SphereTree(nodes, left, right, np.vstack(inner) if inner else np.zeros((0, 4)))
+    return _assemble([_shape_parts(shape, T, leaf_size)])
 
 
 # ---------------------------------------------------------------------------------- fields
@@ -592,14 +659,33 @@ def body_tree(
     if path is not None and path.is_file():
         try:
             with np.load(path) as d:
-                return SphereTree(d["nodes"], d["left"], d["right"], d["inner"])
+                return SphereTree(
+                    d["nodes"],
+                    d["left"],
+                    d["right"],
+                    d["inner"],
+                    d["tris"],
+                    d["tri_start"],
+                    d["tri_ids"],
+                    bool(d["meshes_only"]),
+                )
         except (OSError, KeyError, ValueError):
             pass  # a damaged cache entry is rebuilt
-    tree = merge_trees([shape_tree(s, T, leaf_size) for s, T in shapes])
+    tree = _assemble([_shape_parts(s, np.asarray(T, float), leaf_size) for s, T in shapes])
     if path is not None:
         try:
             tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
-            np.savez(tmp, nodes=tree.nodes, left=tree.left, right=tree.right, inner=tree.inner)
+            np.savez(
+                tmp,
+                nodes=tree.nodes,
+                left=tree.left,
+                right=tree.right,
+                inner=tree.inner,
+                tris=tree.tris,
+                tri_start=tree.tri_start,
+                tri_ids=tree.tri_ids,
+                meshes_only=tree.meshes_only,
+            )
             os.replace(tmp, path)
         except OSError:
             pass
