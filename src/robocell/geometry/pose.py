@@ -207,12 +207,26 @@ class Pose:
         )
 
     def matrix(self) -> FloatArray:
-        """The 4×4 homogeneous transform."""
-        return make_transform(quat_to_matrix(self.orientation), self.position)
+        """The 4×4 homogeneous transform (a new array each call)."""
+        T = self.__dict__.get("_matrix")
+        if T is None:
+            # the orientation is a unit quaternion already (checked when the pose was made)
+            x, y, z, w = (float(v) for v in self.orientation)
+            T = np.array(
+                [
+                    [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w), 0.0],
+                    [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w), 0.0],
+                    [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y), 0.0],
+                    [0.0, 0.0, 0.0, 1.0],
+                ]
+            )
+            T[:3, 3] = self.position
+            object.__setattr__(self, "_matrix", T)  # poses are immutable: computed once
+        return T.copy()
 
     def rotation(self) -> FloatArray:
         """The 3×3 rotation matrix."""
-        return quat_to_matrix(self.orientation)
+        return self.matrix()[:3, :3]
 
     def rpy(self) -> FloatArray:
         """(roll, pitch, yaw) in [rad]."""

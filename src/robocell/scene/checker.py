@@ -13,6 +13,7 @@ skipping pairs the allowed-collision matrix allows.
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
@@ -240,6 +241,133 @@ def _pack_triangles(bodies: list[Body]) -> tuple[NDArray[Any], ...]:
     )
 
 
+@dataclass
+class Packed:
+    """The kernel's arrays of a list of bodies (node and triangle indices global to it)."""
+
+    body_root: NDArray[np.int64]
+    nodes: NDArray[np.float64]
+    left: NDArray[np.int64]
+    right: NDArray[np.int64]
+    inner_start: NDArray[np.int64]
+    inner: NDArray[np.float64]
+    fields: tuple[NDArray[Any], ...]
+    triangles: tuple[NDArray[Any], ...]
+
+
+def pack_bodies(bodies: list[Body]) -> Packed:
+    node_start = np.concatenate([[0], np.cumsum([len(b.spheres.nodes) for b in bodies])]).astype(
+        np.int64
+    )
+    nodes = np.vstack([b.spheres.nodes for b in bodies]) if bodies else np.zeros((0, 4))
+
+    def child(side: str) -> NDArray[np.int64]:
+        parts = [
+            np.where(getattr(b.spheres, side) >= 0, getattr(b.spheres, side) + o, -1)
+            for b, o in zip(bodies, node_start, strict=False)
+        ]
+        return np.concatenate(parts).astype(np.int64) if parts else np.zeros(0, np.int64)
+
+    inner = [b.spheres.inner for b in bodies]
+    return Packed(
+        node_start[:-1].copy(),
+        nodes,
+        child("left"),
+        child("right"),
+        np.concatenate([[0], np.cumsum([len(i) for i in inner])]).astype(np.int64),
+        np.vstack(inner) if any(len(i) for i in inner) else np.zeros((0, 4)),
+        _pack_fields(bodies),
+        _pack_triangles(bodies),
+    )
+
+
+def _merge(a: Packed, b: Packed) -> Packed:
+    """a's bodies then b's, b's indices shifted past a's."""
+    m = len(a.nodes)
+    fa, fb = a.fields, b.fields  # kind, origin, box, h, dims, off, values, pstart, pkind, pT, pdims
+    ta, tb = a.triangles, b.triangles  # mesh, node_tri_start, node_tri_ids, tri_V, tri_sphere
+    n_values, n_prims = len(fa[6]), int(fa[7][-1])
+    n_ids, n_tris = int(ta[1][-1]), len(ta[3])
+    fields = (
+        np.concatenate([fa[0], fb[0]]),
+        np.concatenate([fa[1], fb[1]]),
+        np.concatenate([fa[2], fb[2]]),
+        np.concatenate([fa[3], fb[3]]),
+        np.concatenate([fa[4], fb[4]]),
+        np.concatenate([fa[5], np.where(fb[0] == K.FIELD_GRID, fb[5] + n_values, 0)]),
+        np.concatenate([fa[6], fb[6]]),
+        np.concatenate([fa[7][:-1], fb[7] + n_prims]),
+        np.concatenate([fa[8], fb[8]]),
+        np.concatenate([fa[9], fb[9]]),
+        np.concatenate([fa[10], fb[10]]),
+    )
+    triangles = (
+        np.concatenate([ta[0], tb[0]]),
+        np.concatenate([ta[1][:-1], tb[1] + n_ids]),
+        np.concatenate([ta[2], tb[2] + n_tris]),
+        np.concatenate([ta[3], tb[3]]),
+        np.concatenate([ta[4], tb[4]]),
+    )
+    return Packed(
+        np.concatenate([a.body_root, b.body_root + m]),
+        np.vstack([a.nodes, b.nodes]),
+        np.concatenate([a.left, np.where(b.left >= 0, b.left + m, -1)]),
+        np.concatenate([a.right, np.where(b.right >= 0, b.right + m, -1)]),
+        np.concatenate([a.inner_start[:-1], b.inner_start + len(a.inner)]),
+        np.vstack([a.inner, b.inner]),
+        fields,
+        triangles,
+    )
+
+
+@lru_cache(maxsize=16)
+def _robot_pack(robot: RobotModel, names: tuple[str, ...]) -> Packed:
+    """The packed links of a robot (the same for every checker of it)."""
+    spheres, grids = robot_spheres(robot), robot_grids(robot)
+    link_shapes: dict[str, list[tuple[Shape, NDArray[np.float64]]]] = {}
+    for g in robot.collision_geometry:
+        link_shapes.setdefault(g.link, []).append((g.shape, g.T_link_shape))
+    return pack_bodies(
+        [Body(n, n, np.eye(4), spheres[n], True, link_shapes[n], grids.get(n)) for n in names]
+    )
+
+
+_EPOCH = [0]
+
+
+def next_epoch(n: int) -> int:
+    """The first of n stamps no kernel call has used: the scratch below is shared by every
+    checker of a robot, so stamps must be unique across them (kernels hold the GIL, so two
+    calls never overlap)."""
+    e = _EPOCH[0]
+    _EPOCH[0] = e + n
+    return e
+
+
+_SCRATCH: weakref.WeakKeyDictionary[RobotModel, tuple[NDArray[Any], ...]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def _scratch(robot: RobotModel, m: int, k: int, n_links: int) -> tuple[NDArray[Any], ...]:
+    """Per-thread scratch of the kernel (see K.classify), shared by a robot's checkers and grown
+    when a checker has more sphere nodes: filling tens of MB per checker cost more than the rest
+    of building it (measured)."""
+    slots = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
+    m, k = max(m, 1), max(k, 1)
+    have = _SCRATCH.get(robot)
+    if have is None or have[0].shape[1] < m or have[2].shape[1] < k:
+        have = (
+            np.empty((slots, m, 3)),
+            np.full((slots, m), -1, np.int64),
+            np.empty((slots, k, 3)),
+            np.full((slots, k), -1, np.int64),
+            np.empty((slots, n_links, 4, 4)),
+        )
+        _SCRATCH[robot] = have
+    return have
+
+
 class CollisionChecker:
     """Batched collision checks for ``group`` in a snapshot of ``scene`` (joints outside the
     group at the scene's current state). Build it with :meth:`PlanningScene.checker`.
@@ -338,28 +466,12 @@ class CollisionChecker:
         link_idx = np.array([robot.link_index(b.link) for b in bodies], dtype=np.int64)
         self._body_link = link_idx
         self._body_T = np.array([b.T_link_body for b in bodies]).reshape(-1, 4, 4)
-        node_start = np.concatenate(
-            [[0], np.cumsum([len(b.spheres.nodes) for b in bodies])]
-        ).astype(np.int64)
-        self._body_root = node_start[:-1].copy()
-        self._nodes = np.vstack([b.spheres.nodes for b in bodies]) if bodies else np.zeros((0, 4))
-        self._left = np.concatenate(
-            [
-                np.where(b.spheres.left >= 0, b.spheres.left + o, -1)
-                for b, o in zip(bodies, node_start, strict=False)
-            ]
-        ).astype(np.int64)
-        self._right = np.concatenate(
-            [
-                np.where(b.spheres.right >= 0, b.spheres.right + o, -1)
-                for b, o in zip(bodies, node_start, strict=False)
-            ]
-        ).astype(np.int64)
-        inner = [b.spheres.inner for b in bodies]
-        self._inner_start = np.concatenate([[0], np.cumsum([len(i) for i in inner])]).astype(
-            np.int64
-        )
-        self._inner = np.vstack(inner) if any(len(i) for i in inner) else np.zeros((0, 4))
+        n_robot = len(robot_spheres(robot))
+        # the robot's links are packed once per robot; held objects are appended
+        packed = _robot_pack(robot, tuple(b.name for b in bodies[:n_robot]))
+        if len(bodies) > n_robot:
+            packed = _merge(packed, pack_bodies(bodies[n_robot:]))
+        self._packed = packed
         obs = self.obstacles
         self._obs_kind = np.array([o.kind for o in obs], dtype=np.int64)
         self._obs_T = np.array([o.T_scene_shape for o in obs]).reshape(-1, 4, 4)
@@ -372,24 +484,12 @@ class CollisionChecker:
         self._pair_field = np.array(
             [field_side(bodies[i], bodies[j]) for i, j in self.self_pairs], dtype=np.int64
         )
-        fields = _pack_fields(bodies)
-        triangles = _pack_triangles(bodies)
         args = tree_args(robot)
         self._args = args
         moving_links = sorted({int(x) for x in link_idx})
         self._joints = args.joints_to(*moving_links)
         self._group_idx = group.indices.astype(np.int64)
-        # per-thread scratch of the kernel, kept between calls (see K.classify)
-        slots = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
-        m, k = max(len(self._nodes), 1), max(len(self._inner), 1)
-        self._scratch = (
-            np.empty((slots, m, 3)),
-            np.full((slots, m), -1, np.int64),
-            np.empty((slots, k, 3)),
-            np.full((slots, k), -1, np.int64),
-            np.empty((slots, args.n_links, 4, 4)),
-        )
-        self._epoch = 0
+        self._scratch = _scratch(robot, len(packed.nodes), len(packed.inner), args.n_links)
         # everything the kernel takes besides the states, in its order, built once: a call
         # then costs one tuple unpacking instead of forty attribute lookups
         self._kernel_args = (
@@ -400,12 +500,12 @@ class CollisionChecker:
             *args.arrays,
             self._body_link,
             self._body_T,
-            self._body_root,
-            self._nodes,
-            self._left,
-            self._right,
-            self._inner_start,
-            self._inner,
+            packed.body_root,
+            packed.nodes,
+            packed.left,
+            packed.right,
+            packed.inner_start,
+            packed.inner,
             self._obs_kind,
             self._obs_T,
             self._obs_dims,
@@ -414,8 +514,8 @@ class CollisionChecker:
             self._world_pairs,
             self._self_pairs,
             self._pair_field,
-            *fields,
-            *triangles,
+            *packed.fields,
+            *packed.triangles,
             *self._scratch,
         )
 
@@ -497,8 +597,7 @@ class CollisionChecker:
         self, q: NDArray[np.float64], pair_flags: bool
     ) -> tuple[NDArray[np.int8], NDArray[np.bool_]]:
         """classify on an already validated (N, dof) C-contiguous array."""
-        epoch = self._epoch
-        self._epoch += q.shape[0]
+        epoch = next_epoch(q.shape[0])
         kernel = K.classify_serial if q.shape[0] <= CHUNK else K.classify
         return kernel(  # type: ignore[no-any-return, call-arg]
             q, *self._kernel_args, epoch, pair_flags, CHUNK
@@ -520,42 +619,52 @@ class CollisionChecker:
         """The exact answer (coal) for states whose unsure pairs are flagged: only those pairs
         are tested, with the bodies placed by our own FK (about 5× faster than pinocchio's
         check of every pair, which places every geometry first)."""
+        n_world = len(self.world_pairs)
+        full = self._full(q)
+        out = np.zeros(len(q), dtype=bool)
+        for s in range(len(q)):
+            T = self._link_poses(full[s])
+            for k in np.flatnonzero(flags[s]):
+                if k < n_world:
+                    hit = self._collide(T, self.world_pairs[k], True)
+                else:
+                    hit = self._collide(T, self.self_pairs[k - n_world], False)
+                if hit:
+                    out[s] = True
+                    break
+        return out
+
+    def _link_poses(self, full: NDArray[np.float64]) -> NDArray[np.float64]:
+        args = self._args
+        T = np.empty((args.n_links, 4, 4))
+        fk_into(full, self._joints, args.root, *args.arrays, T)
+        return T
+
+    def _collide(self, T: NDArray[np.float64], pair: tuple[int, int], world: bool) -> bool:
+        """coal's verdict on a (body, obstacle) pair (world) or a (body, body) pair, the links
+        at poses T."""
         import coal
 
         body_geoms, obstacle_geoms = self._coal_geometry()
         req = coal.CollisionRequest()
         req.enable_contact = True  # see exact_data
-        args = self._args
-        T = np.empty((args.n_links, 4, 4))
-        n_world = len(self.world_pairs)
-        out = np.zeros(len(q), dtype=bool)
-        full = self._full(q)
 
         def placed(bi: int, T_body_geom: NDArray[np.float64]) -> Any:
             M = T[self._body_link[bi]] @ self._body_T[bi] @ T_body_geom
             return coal.Transform3s(M[:3, :3], M[:3, 3])
 
-        for s in range(len(q)):
-            fk_into(full[s], self._joints, args.root, *args.arrays, T)
-            for k in np.flatnonzero(flags[s]):
-                if k < n_world:
-                    bi, oi = self.world_pairs[k]
-                    g2, T2 = obstacle_geoms[oi]
-                    others = [(g2, coal.Transform3s(T2[:3, :3], T2[:3, 3]))]
-                else:
-                    i, bi = self.self_pairs[k - n_world]
-                    others = [(g, placed(i, Tg)) for g, Tg in body_geoms[i]]
-                for g1, T1 in body_geoms[bi]:
-                    tf1 = placed(bi, T1)
-                    for g2, tf2 in others:
-                        if coal.collide(g1, tf1, g2, tf2, req, coal.CollisionResult()) > 0:
-                            out[s] = True
-                            break
-                    if out[s]:
-                        break
-                if out[s]:
-                    break
-        return out
+        a, b = pair
+        if world:
+            g2, T2 = obstacle_geoms[b]
+            others = [(g2, coal.Transform3s(T2[:3, :3], T2[:3, 3]))]
+        else:
+            others = [(g, placed(b, Tg)) for g, Tg in body_geoms[b]]
+        for g1, T1 in body_geoms[a]:
+            tf1 = placed(a, T1)
+            for g2, tf2 in others:
+                if coal.collide(g1, tf1, g2, tf2, req, coal.CollisionResult()) > 0:
+                    return True
+        return False
 
     def _coal_geometry(self) -> tuple[list[Any], list[Any]]:
         """coal geometry of every body [(geometry, T_body_geometry)] and every obstacle
@@ -603,8 +712,29 @@ class CollisionChecker:
         """Pairs that collide whatever the group's joints do (checked once, exactly)."""
         if not self.static_world_pairs and not self.static_self_pairs:
             return []
-        q_now = self.base_positions[self.group.indices]
-        return self.colliding_pairs(q_now, include_static=True, only_static=True)
+        T = self._link_poses(self.base_positions)
+        # bounding spheres first: (centre in the root frame, radius) of each body
+        spheres = []
+        for bi, b in enumerate(self.bodies):
+            root = b.spheres.nodes[0] if len(b.spheres.nodes) else np.zeros(4)
+            M = T[self._body_link[bi]] @ self._body_T[bi]
+            spheres.append((M[:3, :3] @ root[:3] + M[:3, 3], root[3]))
+        obs = self._obs_sphere
+
+        def near(c: NDArray[np.float64], r: float, c2: NDArray[np.float64], r2: float) -> bool:
+            return float(np.linalg.norm(c - c2)) <= r + r2
+
+        hits = [
+            (self.bodies[i].name, self.obstacles[o].object_id)
+            for i, o in self.static_world_pairs
+            if near(*spheres[i], obs[o, :3], obs[o, 3]) and self._collide(T, (i, o), True)
+        ]
+        hits += [
+            (self.bodies[i].name, self.bodies[j].name)
+            for i, j in self.static_self_pairs
+            if near(*spheres[i], *spheres[j]) and self._collide(T, (i, j), False)
+        ]
+        return sorted(set(hits))
 
     def colliding_pairs(
         self, q: ArrayLike, include_static: bool = True, only_static: bool = False
