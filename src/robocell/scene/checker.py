@@ -712,8 +712,29 @@ class CollisionChecker:
         """Pairs that collide whatever the group's joints do (checked once, exactly)."""
         if not self.static_world_pairs and not self.static_self_pairs:
             return []
-        T = self._link_poses(self.base_positions)
-        # bounding spheres first: (centre in the root frame, radius) of each body
+        return self._hits(self.base_positions, self.static_world_pairs, self.static_self_pairs)
+
+    def colliding_pairs(
+        self, q: ArrayLike, include_static: bool = True, only_static: bool = False
+    ) -> list[tuple[str, str]]:
+        """Names of the colliding pairs (link, object id or held object id) at configuration q,
+        by coal on every pair whose bounding spheres meet."""
+        qv = self.group.as_joint_vector(q)
+        world = [] if only_static else list(self.world_pairs)
+        own = [] if only_static else list(self.self_pairs)
+        if include_static:
+            world += self.static_world_pairs
+            own += self.static_self_pairs
+        return self._hits(self._full(qv[None])[0], world, own)
+
+    def _hits(
+        self,
+        full: NDArray[np.float64],
+        world_pairs: list[tuple[int, int]],
+        self_pairs: list[tuple[int, int]],
+    ) -> list[tuple[str, str]]:
+        """The colliding pairs among these, the robot at the full variable vector ``full``."""
+        T = self._link_poses(full)
         spheres = []
         for bi, b in enumerate(self.bodies):
             root = b.spheres.nodes[0] if len(b.spheres.nodes) else np.zeros(4)
@@ -726,56 +747,15 @@ class CollisionChecker:
 
         hits = [
             (self.bodies[i].name, self.obstacles[o].object_id)
-            for i, o in self.static_world_pairs
+            for i, o in world_pairs
             if near(*spheres[i], obs[o, :3], obs[o, 3]) and self._collide(T, (i, o), True)
         ]
         hits += [
             (self.bodies[i].name, self.bodies[j].name)
-            for i, j in self.static_self_pairs
+            for i, j in self_pairs
             if near(*spheres[i], *spheres[j]) and self._collide(T, (i, j), False)
         ]
         return sorted(set(hits))
-
-    def colliding_pairs(
-        self, q: ArrayLike, include_static: bool = True, only_static: bool = False
-    ) -> list[tuple[str, str]]:
-        """Names of the colliding pairs (link, object id or held object id) at configuration q."""
-        import pinocchio as pin
-
-        qv = self.group.as_joint_vector(q)
-        pairs = (
-            []
-            if only_static
-            else [(self.bodies[i].name, self.obstacles[o].object_id) for i, o in self.world_pairs]
-        )
-        pairs += (
-            []
-            if only_static
-            else [(self.bodies[i].name, self.bodies[j].name) for i, j in self.self_pairs]
-        )
-        if include_static:
-            pairs += [
-                (self.bodies[i].name, self.obstacles[o].object_id)
-                for i, o in self.static_world_pairs
-            ]
-            pairs += [(self.bodies[i].name, self.bodies[j].name) for i, j in self.static_self_pairs]
-        gm, gd, data, _ = self._full_exact_model()
-        pin.computeCollisions(
-            self.robot.pin_model,
-            data,
-            gm,
-            gd,
-            self.robot.pin_configurations(self._full(qv[None]))[0],
-            False,
-        )
-        hits: set[tuple[str, str]] = set()
-        wanted = {frozenset(p) for p in pairs}
-        for k, cp in enumerate(gm.collisionPairs):
-            if gd.collisionResults[k].isCollision():
-                pair = (self._geom_owner[cp.first], self._geom_owner[cp.second])
-                if frozenset(pair) in wanted:
-                    hits.add(pair)
-        return sorted(hits)
 
     def min_distance(self, q: ArrayLike) -> tuple[float, tuple[str, str]]:
         """(distance [m], pair) of the closest checked pair at q (negative: penetration)."""
