@@ -50,6 +50,20 @@ class _Goal:
     q_servo: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)))
     prepared: object = None
     final: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    # the indices above as slices where they are contiguous (cheaper to index every step)
+    act_ix: slice | NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    dof_ix: slice | NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    qpos_ix: slice | NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+
+
+def _index(a: NDArray[np.int64]) -> slice | NDArray[np.int64]:
+    """``a`` as a slice when it is a contiguous ascending run, else as it is."""
+    if len(a) and np.array_equal(a, np.arange(a[0], a[0] + len(a))):
+        return slice(int(a[0]), int(a[0]) + len(a))
+    return a
+
+
+CHUNK = 20  # physics steps per lock of the world
 
 
 class Stepper:
@@ -118,6 +132,7 @@ class Stepper:
         g.ctrl_ref = g.offset + g.scale * (q + v * ratio)
         g.qdd_ref = g.scale * a
         g.q_servo = g.q[:, g.col]
+        g.act_ix, g.dof_ix, g.qpos_ix = _index(g.act), _index(g.dof), _index(g.qpos_adr)
         g.prepared = g.q
 
     def _run(self) -> None:
@@ -137,19 +152,23 @@ class Stepper:
             for g in goals:
                 if g.prepared is not g.q:  # new goal, or a stop replaced its references
                     self._prepare(g)
-            dofs = np.concatenate([g.dof for g in goals])
+            dofs = _index(np.concatenate([g.dof for g in goals]))
             ended = False
             t_chunk, steps_before = time.perf_counter(), step
+            # each goal's actual positions over the chunk, and the reference rows they track
+            actual = [np.empty((CHUNK, len(g.act))) for g in goals]
+            rows = [np.empty(CHUNK, np.int64) for _ in goals]
+            n = 0
             with world.lock:
-                # up to 20 steps per lock (40 ms simulated): readers wait at most that long
-                for _ in range(20):
+                # up to CHUNK steps per lock (40 ms simulated): readers wait at most that long
+                for _ in range(CHUNK):
                     for g in goals:
                         # the reference at the start of the step (the implicit integrator
                         # moves the joint with the velocity at its end: aiming there runs
                         # ahead)
                         k0 = g.k if g.k < len(g.q) else len(g.q) - 1
-                        d.ctrl[g.act] = g.ctrl_ref[k0]
-                        qdd_full[g.dof] = g.qdd_ref[k0]
+                        d.ctrl[g.act_ix] = g.ctrl_ref[k0]
+                        qdd_full[g.dof_ix] = g.qdd_ref[k0]
                     mujoco.mj_mulM(m, d, tau, qdd_full)
                     # inertial and Coriolis feed-forward (gravity is compensated by the bodies'
                     # gravcomp; qfrc_bias holds Coriolis plus gravity)
@@ -159,22 +178,25 @@ class Stepper:
                     if step % 25 == 0 and not world.healthy():
                         self._abort(goals, world.diverged())
                         return
-                    for g in goals:
+                    for i, g in enumerate(goals):
                         g.k += 1
-                        k = g.k if g.k < len(g.q) else len(g.q) - 1
-                        actual = (d.qpos[g.qpos_adr] - g.offset) / g.scale
-                        if g.trace is not None:
-                            g.trace[k, g.col] = actual
-                        if not g.stopping:
-                            err = float(np.max(np.abs(actual - g.q_servo[k])))
-                            if err > g.max_error:
-                                g.max_error = err
+                        rows[i][n] = g.k if g.k < len(g.q) else len(g.q) - 1
+                        actual[i][n] = d.qpos[g.qpos_ix]
                         if g.k >= len(g.q):
                             ended = True
+                    n += 1
                     if ended or self._version != version:
                         break
                 d.qfrc_applied[dofs] = 0.0
                 qdd_full[:] = 0.0
+            # tracking over the chunk, in one go per goal
+            for i, g in enumerate(goals):
+                got = (actual[i][:n] - g.offset) / g.scale
+                ks = rows[i][:n]
+                if g.trace is not None:
+                    g.trace[ks[:, None], g.col[None, :]] = got
+                if not g.stopping and n:
+                    g.max_error = max(g.max_error, float(np.max(np.abs(got - g.q_servo[ks]))))
             self._sim_total += (step - steps_before) * dt
             self._wall_total += time.perf_counter() - t_chunk
             self.real_time_factor = self._sim_total / max(self._wall_total, 1e-9)
