@@ -21,6 +21,8 @@ from numpy.typing import NDArray
 class BatchChecker(Protocol):
     def check(self, qs: NDArray[np.float64]) -> NDArray[np.bool_]: ...
 
+    def first_collision(self, qs: NDArray[np.float64]) -> int: ...
+
 
 @dataclass
 class EdgeStats:
@@ -50,25 +52,13 @@ class Edges:
     def first_hit(self, qs: NDArray[np.float64]) -> int:
         """Index of the first colliding state of ``qs`` (len(qs) if none)."""
         self.stats.edges += 1
-        self.stats.states += len(qs)
-        hit = self.checker.check(qs)
-        k = int(np.argmax(hit))
-        return k if hit[k] else len(qs)
+        k = self.checker.first_collision(qs)
+        self.stats.states += min(k + 1, len(qs))
+        return k
 
-    def free_prefix(self, qs: NDArray[np.float64], first: int = 4) -> int:
-        """How many leading states of ``qs`` are free: checked in chunks that double in size
-        (4, 8, 16, …), so a collision near the start costs few checks and a long free run
-        is still checked in large batches."""
-        done = 0
-        size = first
-        while done < len(qs):
-            chunk = qs[done : done + size]
-            k = self.first_hit(chunk)
-            if k < len(chunk):
-                return done + k
-            done += len(chunk)
-            size *= 2
-        return done
+    def free_prefix(self, qs: NDArray[np.float64]) -> int:
+        """How many leading states of ``qs`` are free (the scan stops at the first collision)."""
+        return self.first_hit(qs)
 
     def free(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
         """Whether the segment a → b (b included, a assumed free) is collision-free. States are

@@ -16,6 +16,7 @@ from numba import njit, prange
 from robocell.kinematics._kernels import fk_into
 
 FREE, HIT, UNSURE = 0, 1, 2
+UNCHECKED = 3  # a state a scan stopped before
 OBS_BOX, OBS_CYLINDER, OBS_SPHERE = 0, 1, 2
 # a triangle in the exact test: its "pose" (3×4) holds the vertices as columns 0–2 and the
 # centroid as column 3
@@ -939,10 +940,12 @@ def _classify_range(  # type: ignore[no-untyped-def]
     record_flags,
     scratch_row,
     out,
+    stop_early=False,
 ):
     """Classify states s0..s1-1 with one thread's scratch (W, stamp, Wi, stamp_i, T).
     Stamps hold ``epoch + s`` for the state that last placed a sphere, so the scratch is
-    reused across calls without being reset."""
+    reused across calls without being reset. ``stop_early``: return after the first state that
+    is not FREE (the later ones keep their UNCHECKED mark)."""
     B = body_link.shape[0]
     TB = np.empty((B, 3, 4))
     q = q_base.copy()
@@ -1006,6 +1009,8 @@ def _classify_range(  # type: ignore[no-untyped-def]
             stack3,
             row,
         )
+        if stop_early and out[s] != FREE:
+            return
 
 
 @njit(cache=True)
@@ -1063,11 +1068,13 @@ def classify_serial(  # type: ignore[no-untyped-def]
     epoch,
     record_flags,
     chunk,
+    stop_early=False,
 ):
     """:func:`classify` in the calling thread, for batches of at most one chunk: a parallel
-    function costs several microseconds more per call even when it runs serially (measured)."""
+    function costs several microseconds more per call even when it runs serially (measured).
+    ``stop_early``: stop at the first state that is not FREE; later states stay UNCHECKED."""
     N = qs.shape[0]
-    out = np.empty(N, np.int8)
+    out = np.full(N, UNCHECKED, np.int8)
     P = world_pairs.shape[0] + self_pairs.shape[0]
     flags = np.zeros((N if record_flags else 0, P), np.bool_)
     scratch = np.zeros((1, 0 if record_flags else P), np.bool_)
@@ -1129,6 +1136,7 @@ def classify_serial(  # type: ignore[no-untyped-def]
         record_flags,
         scratch[0],
         out,
+        stop_early,
     )
     return out, flags
 

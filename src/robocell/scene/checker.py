@@ -333,6 +333,7 @@ def _robot_pack(robot: RobotModel, names: tuple[str, ...]) -> Packed:
 
 
 _EPOCH = [0]
+_WARM = [False]  # the kernels have run once in this process
 
 
 def next_epoch(n: int) -> int:
@@ -442,6 +443,7 @@ class CollisionChecker:
                 else:
                     self.static_self_pairs.append((i, j))
         self._pack()
+        self._warm_up()
         self._exact = None
         self._full_exact = None
         self.static_collisions = self._static_collisions()
@@ -518,6 +520,20 @@ class CollisionChecker:
             *packed.triangles,
             *self._scratch,
         )
+
+    def _warm_up(self) -> None:
+        """Compile (or load from numba's cache) every kernel variant once per process, here
+        rather than inside the first plan's time budget."""
+        if _WARM[0]:
+            return
+        q = np.tile(self.base_positions[self.group.indices], (CHUNK + 1, 1))
+        for record in (False, True):
+            K.classify(q, *self._kernel_args, next_epoch(len(q)), record, CHUNK)  # type: ignore[call-arg]
+            K.classify_serial(q[:1], *self._kernel_args, next_epoch(1), record, CHUNK)  # type: ignore[call-arg]
+        K.classify_serial(  # type: ignore[call-arg]
+            q[:1], *self._kernel_args, next_epoch(1), True, CHUNK, True
+        )
+        _WARM[0] = True
 
     # ------------------------------------------------------------------ exact level
     def _exact_model(self):  # type: ignore[no-untyped-def]
@@ -685,6 +701,27 @@ class CollisionChecker:
             obstacles = [(coal_geometry(sh), T) for sh, T in self._obstacle_shapes]
             self._coal = (bodies, obstacles)
         return self._coal
+
+    def first_collision(self, qs: ArrayLike) -> int:
+        """Index of the first state of ``qs`` (N, dof) in collision, N if none: states are
+        checked in order and the scan stops at the first collision (an edge check)."""
+        q = self.group.as_joint_batch(qs)
+        n = q.shape[0]
+        if self.static_collisions:
+            return 0
+        start = 0
+        while start < n:
+            sub = q[start:]
+            cls, flags = K.classify_serial(  # type: ignore[call-arg]
+                sub, *self._kernel_args, next_epoch(len(sub)), True, CHUNK, True
+            )
+            i = int(np.argmax(cls != K.FREE))
+            if cls[i] == K.FREE:
+                return n
+            if cls[i] == K.HIT or self._settle(sub[i : i + 1], flags[i : i + 1])[0]:
+                return start + i
+            start += i + 1
+        return n
 
     def is_valid(self, qs: ArrayLike) -> NDArray[np.bool_]:
         """(N,) bool, True where the configuration is collision-free."""
