@@ -86,3 +86,40 @@ def test_pairs_a_hair_apart_or_into_each_other(seed: int) -> None:
         free += r == K.GJK_FREE
         hit += r == K.GJK_HIT
     assert free > 20 and hit > 20
+
+
+def _random_triangle(rng: np.random.Generator, near: np.ndarray, scale: float):  # type: ignore[no-untyped-def]
+    V = near + rng.normal(0.0, scale, (3, 3))
+    tri = np.zeros((3, 4))
+    tri[:, :3] = V.T
+    tri[:, 3] = V.mean(axis=0)
+    mesh = coal.BVHModelOBBRSS()
+    mesh.beginModel(1, 3)
+    mesh.addVertices(np.ascontiguousarray(V))
+    mesh.addTriangles(np.array([[0, 1, 2]], dtype=np.int64))
+    mesh.endModel()
+    return tri, mesh
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_triangle_box_test_matches_coal_and_gjk(seed: int) -> None:
+    """The separating-axis triangle–box test: coal's verdict (a mesh triangle against a solid
+    box), and the same as GJK's, on triangles around and across the box's faces."""
+    rng = np.random.default_rng(200 + seed)
+    hits = 0
+    for _ in range(600):
+        dims = rng.uniform(0.02, 0.2, 3)
+        T = np.eye(4)
+        T[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+        T[:3, 3] = rng.uniform(-0.1, 0.1, 3)
+        # near a random point of the box's surface, so that both verdicts occur
+        local = rng.uniform(-1, 1, 3) * dims
+        local[rng.integers(3)] = dims[rng.integers(3)] * rng.choice([-1, 1])
+        tri, mesh = _random_triangle(rng, T[:3, :3] @ local + T[:3, 3], 0.03)
+        sat = K.triangle_box_overlap(tri, T, dims)
+        assert sat == (K.gjk_intersect(K.OBS_TRIANGLE, tri, dims, K.OBS_BOX, T, dims) == K.GJK_HIT)
+        box = coal.Box(*(2 * dims))
+        if not sat:
+            assert not _coal_collides(mesh, np.eye(4), box, T)
+        hits += sat
+    assert 100 < hits < 500

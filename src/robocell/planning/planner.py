@@ -43,6 +43,8 @@ class PlannerConfig:
     step: float = 1.0
     max_deviation: float = 0.05
     shortcut: bool = True
+    # the random shortcuts may check as many states as the search did, and at least this many
+    shortcut_min_states: int = 300
     ik_timeout: float = 0.05
     numeric_goal_solutions: int = 4
     fix_start_radius: float = 0.2
@@ -99,7 +101,8 @@ class Planner:
                 )
                 continue
             if cfg.shortcut:
-                path = shortcut(edges, path, rng, deadline)
+                budget = max(cfg.shortcut_min_states, edges.stats.states)
+                path = shortcut(edges, path, rng, deadline, budget=budget)
             ok, dev, why = self._validate(checker, path, edges)
             if not ok:
                 reason = why

@@ -179,14 +179,20 @@ def shortcut(
     rng: np.random.Generator,
     deadline: float,
     max_tries: int = 40,
+    budget: int | None = None,
 ) -> NDArray[np.float64]:
     """A shorter path: greedy removal of waypoints that can be skipped, then random shortcuts
     between points on the path (OMPL's shortcutPath), then greedy again. Every new edge is
-    checked."""
+    checked. ``budget``: the most states the random shortcuts may check (the greedy passes
+    are not counted): a deterministic cap, so that a plan's cost does not depend on the
+    machine's load."""
     path = _skip_waypoints(edges, path, deadline)
+    stop_at = None if budget is None else edges.stats.states + budget
     fails = 0
     tries = 0
     while len(path) > 2 and tries < max_tries and fails < 12 and time.perf_counter() < deadline:
+        if stop_at is not None and edges.stats.states >= stop_at:
+            break
         tries += 1
         seg_len = np.linalg.norm(np.diff(path, axis=0), axis=1)
         cum = np.concatenate([[0.0], np.cumsum(seg_len)])
