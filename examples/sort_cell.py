@@ -51,9 +51,11 @@ def place_candidates(
     hand: Manipulator, name: str, tray: str, grasp: Grasp, T_at_grasp: Pose, spots: int = 5
 ) -> list[PlaceLocation]:
     """Places in the tray on free spots (away from its walls and from what is already in it)
-    that the arm reaches, nearest the robot first and at least 5 cm apart, each at several
+    that the arm reaches, farthest from the robot first and at least 5 cm apart, each at several
     yaws: first set down on the floor, then released just above the walls (a gripper holding
-    an object from the side cannot go down between them)."""
+    an object from the side cannot go down between them). Farthest first: a tray at the edge
+    of the arm's reach fills from its far reachable side, and the nearer spots stay free for
+    the next objects (nearest first left a ball on top of the box before it, measured)."""
     cell = hand.cell
     o = cell.spec.object(name)
     top = cell.fixture_bounds(tray)[1][2]
@@ -62,7 +64,7 @@ def place_candidates(
     out: list[PlaceLocation] = []
     for bottom in ("floor", "walls"):
         chosen: list[np.ndarray] = []
-        for p in free:
+        for p in free[::-1]:
             if len(chosen) == spots:
                 break
             if any(np.linalg.norm(p[:2] - c[:2]) < 0.05 for c in chosen):
