@@ -494,7 +494,8 @@ class CollisionChecker:
         self._scratch = _scratch(robot, len(packed.nodes), len(packed.inner), args.n_links)
         # everything the kernel takes besides the states, in its order, built once: a call
         # then costs one tuple unpacking instead of forty attribute lookups
-        self._kernel_args = (
+        # the kernel's model (K.MODEL_FIELDS), built once: a call then passes one tuple
+        self._model = (
             self._group_idx,
             self.base_positions,
             self._joints,
@@ -518,8 +519,8 @@ class CollisionChecker:
             self._pair_field,
             *packed.fields,
             *packed.triangles,
-            *self._scratch,
         )
+        assert len(self._model) == len(K.MODEL_FIELDS)
 
     def _warm_up(self) -> None:
         """Compile (or load from numba's cache) every kernel variant once per process, here
@@ -528,11 +529,9 @@ class CollisionChecker:
             return
         q = np.tile(self.base_positions[self.group.indices], (CHUNK + 1, 1))
         for record in (False, True):
-            K.classify(q, *self._kernel_args, next_epoch(len(q)), record, CHUNK)  # type: ignore[call-arg]
-            K.classify_serial(q[:1], *self._kernel_args, next_epoch(1), record, CHUNK)  # type: ignore[call-arg]
-        K.classify_serial(  # type: ignore[call-arg]
-            q[:1], *self._kernel_args, next_epoch(1), True, CHUNK, True
-        )
+            K.classify(q, self._model, self._scratch, next_epoch(len(q)), record, CHUNK)
+            K.classify_serial(q[:1], self._model, self._scratch, next_epoch(1), record)
+        K.classify_serial(q[:1], self._model, self._scratch, next_epoch(1), True, True)
         _WARM[0] = True
 
     # ------------------------------------------------------------------ exact level
@@ -614,9 +613,12 @@ class CollisionChecker:
     ) -> tuple[NDArray[np.int8], NDArray[np.bool_]]:
         """classify on an already validated (N, dof) C-contiguous array."""
         epoch = next_epoch(q.shape[0])
-        kernel = K.classify_serial if q.shape[0] <= CHUNK else K.classify
-        return kernel(  # type: ignore[no-any-return, call-arg]
-            q, *self._kernel_args, epoch, pair_flags, CHUNK
+        if q.shape[0] <= CHUNK:
+            return K.classify_serial(  # type: ignore[no-any-return]
+                q, self._model, self._scratch, epoch, pair_flags
+            )
+        return K.classify(  # type: ignore[no-any-return]
+            q, self._model, self._scratch, epoch, pair_flags, CHUNK
         )
 
     def check(self, qs: ArrayLike) -> NDArray[np.bool_]:
@@ -712,8 +714,8 @@ class CollisionChecker:
         start = 0
         while start < n:
             sub = q[start:]
-            cls, flags = K.classify_serial(  # type: ignore[call-arg]
-                sub, *self._kernel_args, next_epoch(len(sub)), True, CHUNK, True
+            cls, flags = K.classify_serial(
+                sub, self._model, self._scratch, next_epoch(len(sub)), True, True
             )
             i = int(np.argmax(cls != K.FREE))
             if cls[i] == K.FREE:
