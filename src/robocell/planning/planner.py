@@ -22,7 +22,13 @@ from robocell.planning.request import (
     PoseGoal,
     PositionGoal,
 )
-from robocell.planning.rrt import Edges, rrt_connect, shortcut
+from robocell.planning.rrt import (
+    Edges,
+    rrt_connect,
+    rrt_connect_compiled,
+    shortcut,
+    warm_up,
+)
 from robocell.robot.model import JointGroup
 from robocell.scene.checker import CollisionChecker
 from robocell.scene.planning_scene import PlanningScene
@@ -43,6 +49,8 @@ class PlannerConfig:
     step: float = 1.0
     max_deviation: float = 0.05
     shortcut: bool = True
+    compiled: bool = True  # the search compiled whole (numba); False: the Python search alone
+    compiled_share: float = 0.8  # of the time budget; the Python search gets the rest
     # the random shortcuts may check as many states as the search did, and at least this many
     shortcut_min_states: int = 300
     ik_timeout: float = 0.05
@@ -72,6 +80,8 @@ class Planner:
         group = self.scene.robot.group(request.group)
         _check_request(request)
         checker = self.scene.checker(group)
+        if cfg.compiled and request.planner_id.strip().lower() in NATIVE_PLANNERS:
+            warm_up(checker)
         start, prefix = self._start(group, request, checker)
         goals = self.goal_configurations(group, request.goal, start, checker)
         # the search's budget starts once the checker exists and the goals are known: building
@@ -285,9 +295,16 @@ class Planner:
         deadline: float,
     ) -> NDArray[np.float64] | None:
         if planner_name.lower() in NATIVE_PLANNERS:
-            return rrt_connect(
-                edges, start, goals, group.lower, group.upper, rng, deadline, self.config.step
-            )
+            lo, hi, step = group.lower, group.upper, self.config.step
+            if self.config.compiled:
+                # most of the budget to the compiled search; what is left to the Python one,
+                # which settles the states the kernel leaves unsure (near contact)
+                now = time.perf_counter()
+                soon = now + self.config.compiled_share * (deadline - now)
+                path = rrt_connect_compiled(edges, start, goals, lo, hi, rng, soon, step)
+                if path is not None or time.perf_counter() >= deadline:
+                    return path
+            return rrt_connect(edges, start, goals, lo, hi, rng, deadline, step)
         from robocell.planning import ompl_backend
 
         if not ompl_backend.is_ompl_name(planner_name):

@@ -156,6 +156,64 @@ def rrt_connect(
     return None
 
 
+def rrt_connect_compiled(
+    edges: Edges,
+    start: NDArray[np.float64],
+    goals: NDArray[np.float64],
+    lower: NDArray[np.float64],
+    upper: NDArray[np.float64],
+    rng: np.random.Generator,
+    deadline: float,
+    step: float = 0.8,
+    cap: int = 1 << 14,
+) -> NDArray[np.float64] | None:
+    """:func:`rrt_connect` compiled whole on the collision kernel (see
+    :mod:`robocell.planning._kernels`): a path, or None when the deadline passed or a tree
+    filled up. States the kernel leaves unsure block its edges; the caller may then search in
+    Python, which settles them."""
+    from robocell.planning import _kernels as PK
+    from robocell.scene.checker import next_epoch
+
+    model, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
+    path, status, stats = PK.rrt_connect(
+        np.ascontiguousarray(start, dtype=float),
+        np.ascontiguousarray(goals, dtype=float),
+        np.ascontiguousarray(lower, dtype=float),
+        np.ascontiguousarray(upper, dtype=float),
+        int(rng.integers(2**31)),
+        deadline,
+        edges.resolution,
+        step,
+        model,
+        scratch,
+        next_epoch(1 << 40),
+        cap,
+    )
+    edges.stats.iterations += int(stats[0])
+    edges.stats.nodes = int(stats[1])
+    edges.stats.states += int(stats[3])
+    return path if status == PK.FOUND else None
+
+
+_WARM = [False]
+
+
+def warm_up(checker: BatchChecker) -> None:
+    """Compile (or load from numba's cache) the compiled search once per process, outside any
+    plan's time budget."""
+    if _WARM[0]:
+        return
+    from robocell.planning import _kernels as PK
+    from robocell.scene.checker import next_epoch
+
+    model, scratch = checker.kernel_inputs()  # type: ignore[attr-defined]
+    q = np.ascontiguousarray(model[1][model[0]], dtype=float)  # the current state
+    PK.rrt_connect(q, q[None, :], q - 1, q + 1, 0, 0.0, 0.05, 1.0, model, scratch,
+                   next_epoch(1 << 20), 16)  # fmt: skip
+    PK._clock()  # numba's object mode costs 50 ms on its first call (measured)
+    _WARM[0] = True
+
+
 def _extend(
     edges: Edges, q_from: NDArray[np.float64], q_to: NDArray[np.float64], step: float
 ) -> NDArray[np.float64] | None:

@@ -704,6 +704,11 @@ class CollisionChecker:
             self._coal = (bodies, obstacles)
         return self._coal
 
+    def kernel_inputs(self) -> tuple[tuple[Any, ...], tuple[NDArray[Any], ...]]:
+        """(model, scratch) for compiled code that calls the kernel itself (the compiled
+        planner): see K.MODEL_FIELDS. Stamps must come from :func:`next_epoch`."""
+        return self._model, self._scratch
+
     def first_collision(self, qs: ArrayLike) -> int:
         """Index of the first state of ``qs`` (N, dof) in collision, N if none: states are
         checked in order and the scan stops at the first collision (an edge check)."""

@@ -1,0 +1,188 @@
+"""RRT-Connect compiled whole (numba), on the collision kernel directly: no Python call per edge.
+
+The search is the one :func:`robocell.planning.rrt.rrt_connect` runs (the same extension,
+connection and straight-to-goal steps); the differences are speed and one rule: a state the
+kernel cannot settle by itself (UNSURE, left to coal by the checker) blocks the edge here. The
+compiled search is therefore a little conservative near contact; the planner falls back to the
+Python search, which settles such states exactly, when the compiled one finds nothing.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numba
+import numpy as np
+from numba import njit
+
+from robocell.scene import _kernels as SK
+
+FOUND, NOT_FOUND, FULL = 0, 1, 2
+
+
+@njit(cache=True)
+def _clock():  # type: ignore[no-untyped-def]
+    with numba.objmode(t="float64"):
+        t = time.perf_counter()
+    return t
+
+
+@njit(cache=True)
+def _free_prefix(a, b, resolution, model, scratch, epoch, buf):  # type: ignore[no-untyped-def]
+    """(free states after a on the segment a → b, states on it), the states at most
+    ``resolution`` apart per joint, b included, a not."""
+    dist = 0.0
+    for j in range(a.shape[0]):
+        dist = max(dist, abs(b[j] - a[j]))
+    n = max(1, int(math.ceil(dist / resolution)))
+    if n > buf.shape[0]:  # a long straight edge: a buffer of its own
+        buf = np.empty((n, a.shape[0]))
+    for k in range(n):
+        t = (k + 1) / n
+        for j in range(a.shape[0]):
+            buf[k, j] = a[j] + t * (b[j] - a[j])
+    out, _ = SK.classify_serial(buf[:n], model, scratch, epoch, False, True)
+    for k in range(n):
+        if out[k] != SK.FREE:
+            return k, n
+    return n, n
+
+
+@njit(cache=True)
+def _nearest(Q, n, q):  # type: ignore[no-untyped-def]
+    best, arg = np.inf, 0
+    for i in range(n):
+        d = 0.0
+        for j in range(q.shape[0]):
+            e = Q[i, j] - q[j]
+            d += e * e
+        if d < best:
+            best, arg = d, i
+    return arg
+
+
+@njit(cache=True)
+def _extend(Q, P, n, i, q_to, step, resolution, model, scratch, epoch, buf, stats):  # type: ignore[no-untyped-def]
+    """Grow the tree (Q, P, n nodes) from node i towards q_to by at most ``step`` (L∞), as far
+    as it is free: the new node's index, or −1 if not even the first state is free."""
+    dof = q_to.shape[0]
+    dist = 0.0
+    for j in range(dof):
+        dist = max(dist, abs(q_to[j] - Q[i, j]))
+    if dist < 1e-12:
+        return -1
+    f = 1.0 if dist <= step else step / dist
+    target = np.empty(dof)
+    for j in range(dof):
+        target[j] = Q[i, j] + f * (q_to[j] - Q[i, j])
+    k, m = _free_prefix(Q[i], target, resolution, model, scratch, epoch + stats[2], buf)
+    stats[2] += m
+    stats[3] += min(k + 1, m)
+    if k == 0:
+        return -1
+    if k == m:
+        Q[n] = target
+    else:
+        Q[n] = buf[k - 1]
+    P[n] = i
+    return n
+
+
+@njit(cache=True)
+def rrt_connect(
+    start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, epoch, cap
+):  # type: ignore[no-untyped-def]
+    """A collision-free path (K, dof) from ``start`` to one of ``goals`` (G, dof) and a status
+    (FOUND, NOT_FOUND when ``deadline`` (time.perf_counter) passed, FULL when a tree reached
+    ``cap`` nodes), with stats (iterations, nodes, epochs used, states checked)."""
+    np.random.seed(seed)  # noqa: NPY002 (numba's generator: the legacy API is what it compiles)
+    dof = start.shape[0]
+    stats = np.zeros(4, np.int64)  # iterations, nodes, epochs used, states checked
+    buf = np.empty((4096, dof))
+    empty = np.empty((0, dof))
+    # straight to the nearest goals first: many requests need nothing more
+    d = np.empty(goals.shape[0])
+    for g in range(goals.shape[0]):
+        d[g] = np.sqrt(np.sum((goals[g] - start) ** 2))
+    for g in np.argsort(d)[:4]:
+        k, m = _free_prefix(start, goals[g], resolution, model, scratch, epoch + stats[2], buf)
+        stats[2] += m
+        stats[3] += min(k + 1, m)
+        if k == m:
+            path = np.empty((2, dof))
+            path[0] = start
+            path[1] = goals[g]
+            return path, FOUND, stats
+    Qa = np.empty((cap, dof))
+    Pa = np.empty(cap, np.int64)
+    Qb = np.empty((cap, dof))
+    Pb = np.empty(cap, np.int64)
+    Qa[0] = start
+    Pa[0] = -1
+    na = 1
+    for g in range(goals.shape[0]):
+        Qb[g] = goals[g]
+        Pb[g] = -1
+    nb = goals.shape[0]
+    a_is_start = True
+    q_rand = np.empty(dof)
+    while True:
+        if stats[0] % 16 == 0 and _clock() > deadline:
+            stats[1] = na + nb
+            return empty, NOT_FOUND, stats
+        if na >= cap - 1 or nb >= cap - 1:
+            stats[1] = na + nb
+            return empty, FULL, stats
+        stats[0] += 1
+        for j in range(dof):
+            q_rand[j] = lower[j] + np.random.random() * (upper[j] - lower[j])  # noqa: NPY002
+        i = _nearest(Qa, na, q_rand)
+        i_new = _extend(Qa, Pa, na, i, q_rand, step, resolution, model, scratch, epoch, buf, stats)
+        if i_new >= 0:
+            na += 1
+            q_new = Qa[i_new].copy()
+            # connect: grow the other tree towards q_new, as far as it is free
+            j = _nearest(Qb, nb, q_new)
+            while nb < cap - 1:
+                j2 = _extend(
+                    Qb, Pb, nb, j, q_new, step, resolution, model, scratch, epoch, buf, stats
+                )
+                if j2 < 0:
+                    break
+                nb += 1
+                j = j2
+                reached = True
+                for c in range(dof):
+                    if Qb[j, c] != q_new[c]:
+                        reached = False
+                        break
+                if reached:
+                    # the path: a's branch reversed, then b's branch
+                    la = 0
+                    x = i_new
+                    while x >= 0:
+                        la += 1
+                        x = Pa[x]
+                    lb = 0
+                    x = j
+                    while x >= 0:
+                        lb += 1
+                        x = Pb[x]
+                    path = np.empty((la + lb - 1, dof))
+                    x = i_new
+                    for s in range(la - 1, -1, -1):
+                        path[s] = Qa[x]
+                        x = Pa[x]
+                    x = Pb[j]
+                    for s in range(la, la + lb - 1):
+                        path[s] = Qb[x]
+                        x = Pb[x]
+                    stats[1] = na + nb
+                    if not a_is_start:
+                        path = path[::-1].copy()
+                    return path, FOUND, stats
+        Qa, Qb = Qb, Qa
+        Pa, Pb = Pb, Pa
+        na, nb = nb, na
+        a_is_start = not a_is_start
