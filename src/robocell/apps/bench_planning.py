@@ -19,6 +19,7 @@ import numpy as np
 
 from robocell.errors import RobocellError
 from robocell.planning import JointGoal, MotionPlanRequest, Planner
+from robocell.planning.rrt import warm_up
 from robocell.robot.model import RobotModel
 from robocell.scene.moveit_yaml import load_request, load_scene
 
@@ -87,6 +88,7 @@ def run_set(
         req = load_request(model, folder / f"request{k:04d}.yaml", scene)
         group = model.group(req.group)
         checker = scene.checker(group)
+        warm_up(checker)  # compiling the search once per process is not planning
         valid = (
             bool(group.within_limits(req.start))
             and bool(group.within_limits(req.goal))

@@ -114,6 +114,14 @@ class Planner:
                 budget = max(cfg.shortcut_min_states, edges.stats.states)
                 path = shortcut(edges, path, rng, deadline, budget=budget)
             ok, dev, why = self._validate(checker, path, edges)
+            if not ok and planner_name.lower() in NATIVE_PLANNERS:
+                # repair the segments that collide between checked states, each by a search
+                # between its ends at the validation resolution, before replanning it all
+                repaired = self._repair(checker, path, group, rng, deadline)
+                if repaired is not None:
+                    path = repaired
+                    ok, dev, why = self._validate(checker, path, edges)
+                    stats["repairs"] = stats.get("repairs", 0) + 1
             if not ok:
                 reason = why
                 resolution = max(resolution / 2, cfg.validation_resolution)
@@ -322,6 +330,28 @@ class Planner:
             deadline,
             int(rng.integers(2**31)),
         )
+
+    def _repair(
+        self,
+        checker: CollisionChecker,
+        path: NDArray[np.float64],
+        group: JointGroup,
+        rng: np.random.Generator,
+        deadline: float,
+    ) -> NDArray[np.float64] | None:
+        """``path`` with each segment that collides at the validation resolution replaced by a
+        path searched between its ends at that resolution; None if one cannot be."""
+        fine = Edges(checker, self.config.validation_resolution)
+        out = [path[0]]
+        for a, b in zip(path[:-1], path[1:], strict=True):
+            if fine.free(a, b):
+                out.append(b)
+                continue
+            sub = self._solve("", fine, a, b[None, :], group, rng, deadline)
+            if sub is None:
+                return None
+            out.extend(shortcut(fine, sub, rng, deadline, budget=fine.stats.states)[1:])
+        return np.array(out)
 
     def _validate(
         self,
