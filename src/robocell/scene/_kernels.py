@@ -1,8 +1,16 @@
 """Compiled collision kernels over sphere trees (see :mod:`robocell.scene.spheres`).
 
-Per state the answer is FREE (certain: no leaf touches), HIT (certain: an inner sphere touches)
-or UNSURE (leaves touch, inner spheres do not): the caller settles UNSURE pairs exactly.
-Node centres are moved to the world lazily, once per state (a stamp marks those done).
+Per state and pair:
+- a link against a world primitive: the link's tree against the primitive's exact distance;
+- two bodies: one's tree against the other's distance field (a grid of lower bounds for a mesh,
+  exact distances for primitives), or both trees when neither has a field;
+- no leaf touches: FREE for certain; an inner sphere touches: HIT for certain;
+- leaves touch: the pieces under them are tested exactly (primitives by GJK, mesh triangles
+  against boxes by the separating-axis test, against the rest by GJK), within a budget per pair.
+
+A state is FREE, HIT, or UNSURE when a pair is left undecided (its flag is set): the caller
+settles those pairs with coal. Node centres are moved to the world lazily, once per state (a
+stamp marks those done).
 """
 
 from __future__ import annotations

@@ -1,9 +1,11 @@
 """The batched collision checker of one planning group in one planning-scene snapshot.
 
-Two levels (ARCHITECTURE.md): a compiled sphere test classifies each state as certainly free,
-certainly colliding or unsure; only unsure states go to the exact check (coal, through
-pinocchio's geometry model, batched over states in C++). Pairs whose relative pose the group's
-joints cannot change are checked once, when the checker is built.
+Two levels (ARCHITECTURE.md): a compiled kernel classifies each state as certainly free,
+certainly colliding or unsure (sphere trees, distance fields, and exact tests of the pieces under
+touching leaves: see :mod:`robocell.scene._kernels`); the pairs it leaves unsure go to coal, one
+pair at a time, with the bodies placed by our FK. ``check_exact`` is the exact check alone
+(pinocchio over every pair, batched in C++), for comparison. Pairs whose relative pose the
+group's joints cannot change are checked once, when the checker is built.
 
 Semantics: robot links and held objects are solids; ``check`` returns True for a state in
 collision (robot against world, held objects against world and robot, robot against itself),
