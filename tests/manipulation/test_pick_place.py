@@ -67,3 +67,36 @@ def test_failures_name_the_stage_and_the_candidate():
         "red_box", generate_grasps("red_box", o.shape, T, man.geometry, cell.scene, "arm")
     ).success
     assert np.isfinite(cell.object_pose("red_box").position).all()
+
+
+def test_a_pick_stops_when_the_object_moved_during_it():
+    """Grasps are made for where the object was: once a failed candidate has knocked it
+    elsewhere, trying the rest of them is wasted motion. The pick says so, and fresh grasps
+    work."""
+    cell = Cell.load("sorting", mode="physics", time_scale=0)
+    man = Manipulator(cell)
+    o = cell.spec.object("red_box")
+    T = cell.object_pose("red_box")
+    grasps = generate_grasps("red_box", o.shape, T, man.geometry, cell.scene, "arm")
+    assert len(grasps) > 1
+    gripper, calls = man._gripper, []
+
+    def knocked(command: float) -> None:
+        gripper(command)
+        calls.append(command)
+        if len(calls) == 2:  # the first close: the box is knocked 10 cm away
+            cell.world.set_object_pose(
+                "red_box", Pose(T.position + [0.1, 0.0, 0.005], T.orientation)
+            )
+            cell.world.step(300)
+
+    man._gripper = knocked  # type: ignore[method-assign]
+    result = man.pick("red_box", grasps)
+    assert not result.success
+    assert "moved" in result.reason, result.reason
+    assert len({st.candidate for st in result.stages}) == 1  # no other candidate was tried
+    man._gripper = gripper  # type: ignore[method-assign]
+    fresh = generate_grasps(
+        "red_box", o.shape, cell.object_pose("red_box"), man.geometry, cell.scene, "arm"
+    )
+    assert man.pick("red_box", fresh).success

@@ -62,6 +62,17 @@ class _Stopped(_Failed):
         super().__init__("stopped", "stopped by the user")
 
 
+def _moved(a: Pose, b: Pose, distance: float = 0.005, angle: float = 0.09) -> str:
+    """How an object moved from pose a to b, if by more than ``distance`` [m] or ``angle``
+    [rad] (about 5°); "" if it did not."""
+    d = float(np.linalg.norm(b.position - a.position))
+    R = a.rotation().T @ b.rotation()
+    turn = float(np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0)))
+    if d <= distance and turn <= angle:
+        return ""
+    return f"{d * 1000:.0f} mm, {np.degrees(turn):.0f}°"
+
+
 class Manipulator:
     """Pick and place for the cell's arm and gripper. :meth:`stop` (from another thread) ends
     the running pick or place at its next stage, with the robot held where it is."""
@@ -193,7 +204,13 @@ class Manipulator:
 
     def _pick(self, name: str, grasps: list[Grasp], result: ManipulationResult) -> None:
         cell, scene = self.cell, self.cell.scene
+        start = cell.object_pose(name)
         for g in sorted(grasps, key=lambda x: -x.quality):
+            moved = _moved(start, cell.object_pose(name))
+            if moved:
+                # the grasps were made for where it was: the caller makes new ones
+                result.reason = f"{name!r} moved ({moved}) since its grasps were made"
+                break
             try:
                 cell.sync_scene()
                 self._gripper(g.pre_grasp_posture)
