@@ -56,10 +56,6 @@ class Edges:
         self.stats.states += min(k + 1, len(qs))
         return k
 
-    def free_prefix(self, qs: NDArray[np.float64]) -> int:
-        """How many leading states of ``qs`` are free (the scan stops at the first collision)."""
-        return self.first_hit(qs)
-
     def free(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
         """Whether the segment a → b (b included, a assumed free) is collision-free. States are
         checked coarse-to-fine (every 8th first), so a blocked edge is usually found early."""
@@ -225,7 +221,7 @@ def _extend(
         return None
     target = q_to if dist <= step else q_from + d * (step / dist)
     qs = edges.states(q_from, target)
-    k = edges.free_prefix(qs)
+    k = edges.first_hit(qs)  # how many leading states are free
     if k == 0:
         return None
     return target if k == len(qs) else qs[k - 1]
