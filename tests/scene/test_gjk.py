@@ -123,3 +123,30 @@ def test_triangle_box_test_matches_coal_and_gjk(seed: int) -> None:
             assert not _coal_collides(mesh, np.eye(4), box, T)
         hits += sat
     assert 100 < hits < 500
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_triangle_triangle_test_matches_coal_and_gjk(seed: int) -> None:
+    """The separating-axis triangle–triangle test: coal's verdict on two one-triangle meshes and
+    GJK's verdict, on triangles of mixed sizes around a common point, some of them in one plane
+    and some a hair apart."""
+    rng = np.random.default_rng(300 + seed)
+    hits = 0
+    for i in range(600):
+        centre = rng.uniform(-0.1, 0.1, 3)
+        a, ma = _random_triangle(rng, centre, rng.uniform(0.005, 0.05))
+        b, mb = _random_triangle(rng, centre, rng.uniform(0.005, 0.05))
+        if i % 5 == 0:
+            # into A's plane (coplanar pairs), or just off it
+            n = np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0])
+            n /= np.linalg.norm(n)
+            off = (b[:, :3].T - a[:, 0]) @ n
+            V = b[:, :3].T - np.outer(off, n) + n * rng.choice([0.0, 1e-5, -1e-5])
+            b, mb = _random_triangle(rng, V, 0.0)
+        sat = K.triangle_triangle_overlap(a, b)
+        r = K.gjk_intersect(K.OBS_TRIANGLE, a, a[:, 3], K.OBS_TRIANGLE, b, b[:, 3])
+        assert r != K.GJK_UNSURE
+        assert sat == (r == K.GJK_HIT)
+        assert sat == _coal_collides(ma, np.eye(4), mb, np.eye(4))
+        hits += sat
+    assert 100 < hits < 500

@@ -351,8 +351,9 @@ def _exact_self(a, b, TB, prim_start, prim_kind, prim_T, prim_dims):  # type: ig
     return GJK_UNSURE if unsure else GJK_FREE
 
 
-BOX_TESTS_PER_GJK = 8  # triangle–box tests that cost one GJK (the budget's unit)
-EXACT_BUDGET = 16  # triangle tests one pair may make before it is left to coal
+GJK_COST = 8  # what one GJK costs in triangle–box or triangle–triangle tests (the budget's unit)
+EXACT_BUDGET = 256  # triangle tests one pair may make before it is left to coal
+PAIR_TAGS = 1 << 16  # more than any checker's pairs: a (state, pair) tag is cur * PAIR_TAGS + pair
 TOUCH = 3  # a pair's leaves touch and the kernel cannot settle it (the caller decides)
 
 
@@ -403,6 +404,76 @@ def triangle_box_overlap(tri, T, half):  # type: ignore[no-untyped-def]
     return True
 
 
+PAIR_SET = 1024  # slots of a per-thread hash set of triangle pairs (≥ 2 × EXACT_BUDGET)
+
+
+@njit(cache=True, inline="always")
+def _first_visit(pairs, key, tag):  # type: ignore[no-untyped-def]
+    """Add ``key`` to the hash set ``pairs`` (2 × PAIR_SET: keys, tags; a slot is empty unless
+    its tag is ``tag``): True if it was not there."""
+    h = (key * 2654435761) & (PAIR_SET - 1)
+    for _ in range(PAIR_SET):
+        if pairs[1, h] != tag:
+            pairs[0, h] = key
+            pairs[1, h] = tag
+            return True
+        if pairs[0, h] == key:
+            return False
+        h = (h + 1) & (PAIR_SET - 1)
+    return True
+
+
+@njit(cache=True, inline="always")
+def _separated(ax, ay, az, A, B):  # type: ignore[no-untyped-def]
+    """Whether the axis (ax, ay, az) separates triangles A and B (3×4, vertices as columns) by
+    more than EXACT_TOL."""
+    a0 = ax * A[0, 0] + ay * A[1, 0] + az * A[2, 0]
+    a1 = ax * A[0, 1] + ay * A[1, 1] + az * A[2, 1]
+    a2 = ax * A[0, 2] + ay * A[1, 2] + az * A[2, 2]
+    b0 = ax * B[0, 0] + ay * B[1, 0] + az * B[2, 0]
+    b1 = ax * B[0, 1] + ay * B[1, 1] + az * B[2, 1]
+    b2 = ax * B[0, 2] + ay * B[1, 2] + az * B[2, 2]
+    r = EXACT_TOL * np.sqrt(ax * ax + ay * ay + az * az)
+    return min(b0, b1, b2) > max(a0, a1, a2) + r or min(a0, a1, a2) > max(b0, b1, b2) + r
+
+
+@njit(cache=True)
+def triangle_triangle_overlap(A, B):  # type: ignore[no-untyped-def]
+    """Whether triangles A and B (3×4, vertices as columns) come closer than EXACT_TOL: the
+    separating-axis test over both normals, the nine edge × edge axes and, for triangles in one
+    plane, each normal × each edge. An axis found too short to trust is skipped, which can only
+    call a pair touching; several times cheaper than GJK on the same pair."""
+    # the normals
+    ux, uy, uz = A[0, 1] - A[0, 0], A[1, 1] - A[1, 0], A[2, 1] - A[2, 0]
+    vx, vy, vz = A[0, 2] - A[0, 0], A[1, 2] - A[1, 0], A[2, 2] - A[2, 0]
+    nax, nay, naz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    if _separated(nax, nay, naz, A, B):
+        return False
+    ux, uy, uz = B[0, 1] - B[0, 0], B[1, 1] - B[1, 0], B[2, 1] - B[2, 0]
+    vx, vy, vz = B[0, 2] - B[0, 0], B[1, 2] - B[1, 0], B[2, 2] - B[2, 0]
+    nbx, nby, nbz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    if _separated(nbx, nby, nbz, A, B):
+        return False
+    for i in range(3):
+        j = (i + 1) % 3
+        ex, ey, ez = A[0, j] - A[0, i], A[1, j] - A[1, i], A[2, j] - A[2, i]
+        for k in range(3):
+            m = (k + 1) % 3
+            fx, fy, fz = B[0, m] - B[0, k], B[1, m] - B[1, k], B[2, m] - B[2, k]
+            lx, ly, lz = ey * fz - ez * fy, ez * fx - ex * fz, ex * fy - ey * fx
+            if lx * lx + ly * ly + lz * lz > 1e-24 and _separated(lx, ly, lz, A, B):
+                return False
+        # in-plane axes (they matter when the triangles share a plane)
+        lx, ly, lz = nay * ez - naz * ey, naz * ex - nax * ez, nax * ey - nay * ex
+        if lx * lx + ly * ly + lz * lz > 1e-24 and _separated(lx, ly, lz, A, B):
+            return False
+        fx, fy, fz = B[0, j] - B[0, i], B[1, j] - B[1, i], B[2, j] - B[2, i]
+        lx, ly, lz = nby * fz - nbz * fy, nbz * fx - nbx * fz, nbx * fy - nby * fx
+        if lx * lx + ly * ly + lz * lz > 1e-24 and _separated(lx, ly, lz, A, B):
+            return False
+    return True
+
+
 @njit(cache=True, inline="always")
 def _triangle_into(R, t, V, out):  # type: ignore[no-untyped-def]
     """out (3×4): triangle V (3, 3) moved by (R, t), vertices as columns, centroid last."""
@@ -432,9 +503,12 @@ def _mesh_vs_obstacle(
     tri_V,
     tri_sphere,
     stack,
+    seen,
+    tag,
 ):  # type: ignore[no-untyped-def]
     """Body b's triangles (in the leaves that touch the obstacle) against a solid obstacle
-    primitive: GJK_HIT, GJK_FREE, or GJK_UNSURE (a test undecided, or over the budget)."""
+    primitive: GJK_HIT, GJK_FREE, or GJK_UNSURE (a test undecided, or over the budget).
+    A triangle spans many leaves: ``seen[tri] == tag`` marks it tested in this call."""
     R = TB[b, :, :3]
     t = TB[b, :, 3]
     tri = np.empty((3, 4))
@@ -455,14 +529,17 @@ def _mesh_vs_obstacle(
             continue
         for k in range(node_tri_start[n], node_tri_start[n + 1]):
             f = node_tri_ids[k]
+            if seen[f] == tag:
+                continue
+            seen[f] = tag
             sx, sy, sz = tri_sphere[f, 0], tri_sphere[f, 1], tri_sphere[f, 2]
             x = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
             y = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
             z = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
             if _obstacle_distance(x, y, z, kind, To, dims) > tri_sphere[f, 3]:
                 continue
-            tests += 1 if kind == OBS_BOX else BOX_TESTS_PER_GJK
-            if tests > EXACT_BUDGET * BOX_TESTS_PER_GJK:
+            tests += 1 if kind == OBS_BOX else GJK_COST
+            if tests > EXACT_BUDGET:
                 return GJK_UNSURE
             _triangle_into(R, t, tri_V[f], tri)
             if kind == OBS_BOX:
@@ -580,9 +657,14 @@ def _tree_near_field(
     tri_sphere,
     stack,
     stack2,
+    seen,
+    pairs,
+    tag,
 ):  # type: ignore[no-untyped-def]
     """Body b against body f by descending b's tree against f's distance field (one tree, not
-    two): GJK_FREE, GJK_HIT or TOUCH (leaves may touch; not settled here).
+    two): GJK_FREE, GJK_HIT or TOUCH (leaves may touch; not settled here). A triangle spans
+    many leaves: ``seen[tri] == tag`` marks one of b's tested against f's primitives, and the
+    hash set ``pairs`` the pairs of triangles tested, in this call.
 
     At a leaf of b the field cannot clear: if b is all triangles and f is primitives or all
     triangles, the leaf's triangles are tested exactly (GJK) against f's primitives or against
@@ -646,8 +728,55 @@ def _tree_near_field(
             ):
                 return TOUCH
             continue
+        if not exact_field:
+            # mesh against mesh: the triangles of this leaf against those of f's leaves that
+            # meet it (a point two triangles share lies in a leaf of each that lists it)
+            rn = nodes[n, 3] + EXACT_TOL
+            sp2 = 1
+            stack2[0] = body_root[f]
+            while sp2 > 0:
+                sp2 -= 1
+                m = stack2[sp2]
+                dx, dy, dz = x - nodes[m, 0], y - nodes[m, 1], z - nodes[m, 2]
+                rr = rn + nodes[m, 3]
+                if dx * dx + dy * dy + dz * dz > rr * rr:
+                    continue
+                if left[m] >= 0:
+                    stack2[sp2] = left[m]
+                    stack2[sp2 + 1] = right[m]
+                    sp2 += 2
+                    continue
+                for kb in range(node_tri_start[n], node_tri_start[n + 1]):
+                    tb = node_tri_ids[kb]
+                    sx, sy, sz = tri_sphere[tb, 0], tri_sphere[tb, 1], tri_sphere[tb, 2]
+                    cx = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
+                    cy = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
+                    cz = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
+                    for kf in range(node_tri_start[m], node_tri_start[m + 1]):
+                        tf = node_tri_ids[kf]
+                        dx, dy, dz = (
+                            cx - tri_sphere[tf, 0],
+                            cy - tri_sphere[tf, 1],
+                            cz - tri_sphere[tf, 2],
+                        )
+                        rr = tri_sphere[tb, 3] + tri_sphere[tf, 3] + EXACT_TOL
+                        if dx * dx + dy * dy + dz * dz > rr * rr:
+                            continue
+                        if not _first_visit(pairs, tb * tri_V.shape[0] + tf, tag):
+                            continue
+                        tests += 1
+                        if tests > EXACT_BUDGET:
+                            return TOUCH
+                        _triangle_into(R, t, tri_V[tb], tri_b)
+                        _triangle_copy(tri_V[tf], tri_f)
+                        if triangle_triangle_overlap(tri_b, tri_f):
+                            return GJK_HIT
+            continue
         for kb in range(node_tri_start[n], node_tri_start[n + 1]):
             tb = node_tri_ids[kb]
+            if seen[tb] == tag:
+                continue
+            seen[tb] = tag
             sx, sy, sz, rb = (
                 tri_sphere[tb, 0],
                 tri_sphere[tb, 1],
@@ -679,70 +808,29 @@ def _tree_near_field(
             ):
                 continue
             placed = False
-            if exact_field:
-                for p in range(prim_start[f], prim_start[f + 1]):
-                    if _obstacle_distance(cx, cy, cz, prim_kind[p], prim_T[p], prim_dims[p]) > rb:
-                        continue
-                    if not placed:
-                        _triangle_into(R, t, tri_V[tb], tri_b)
-                        placed = True
-                    if prim_kind[p] == OBS_BOX:
-                        tests += 1
-                        if tests > EXACT_BUDGET * BOX_TESTS_PER_GJK:
-                            return TOUCH
-                        if triangle_box_overlap(tri_b, prim_T[p], prim_dims[p]):
-                            return GJK_HIT
-                        continue
-                    tests += BOX_TESTS_PER_GJK
-                    if tests > EXACT_BUDGET * BOX_TESTS_PER_GJK:
-                        return TOUCH
-                    r = gjk_intersect(
-                        OBS_TRIANGLE, tri_b, prim_dims[p], prim_kind[p], prim_T[p], prim_dims[p]
-                    )
-                    if r == GJK_HIT:
-                        return GJK_HIT
-                    if r == GJK_UNSURE:
-                        touch = True
-                continue
-            # the triangles of f's leaves near this triangle
-            sp2 = 1
-            stack2[0] = body_root[f]
-            while sp2 > 0:
-                sp2 -= 1
-                m = stack2[sp2]
-                dx, dy, dz = cx - nodes[m, 0], cy - nodes[m, 1], cz - nodes[m, 2]
-                rr = rb + nodes[m, 3]
-                if dx * dx + dy * dy + dz * dz > rr * rr:
+            for p in range(prim_start[f], prim_start[f + 1]):
+                if _obstacle_distance(cx, cy, cz, prim_kind[p], prim_T[p], prim_dims[p]) > rb:
                     continue
-                if left[m] >= 0:
-                    stack2[sp2] = left[m]
-                    stack2[sp2 + 1] = right[m]
-                    sp2 += 2
-                    continue
-                for kf in range(node_tri_start[m], node_tri_start[m + 1]):
-                    tf = node_tri_ids[kf]
-                    dx, dy, dz = (
-                        cx - tri_sphere[tf, 0],
-                        cy - tri_sphere[tf, 1],
-                        cz - tri_sphere[tf, 2],
-                    )
-                    rr = rb + tri_sphere[tf, 3]
-                    if dx * dx + dy * dy + dz * dz > rr * rr:
-                        continue
-                    if not placed:
-                        _triangle_into(R, t, tri_V[tb], tri_b)
-                        placed = True
-                    tests += BOX_TESTS_PER_GJK
-                    if tests > EXACT_BUDGET * BOX_TESTS_PER_GJK:
+                if not placed:
+                    _triangle_into(R, t, tri_V[tb], tri_b)
+                    placed = True
+                if prim_kind[p] == OBS_BOX:
+                    tests += 1
+                    if tests > EXACT_BUDGET:
                         return TOUCH
-                    _triangle_copy(tri_V[tf], tri_f)
-                    r = gjk_intersect(
-                        OBS_TRIANGLE, tri_b, tri_sphere[tb], OBS_TRIANGLE, tri_f, tri_sphere[tf]
-                    )
-                    if r == GJK_HIT:
+                    if triangle_box_overlap(tri_b, prim_T[p], prim_dims[p]):
                         return GJK_HIT
-                    if r == GJK_UNSURE:
-                        touch = True
+                    continue
+                tests += GJK_COST
+                if tests > EXACT_BUDGET:
+                    return TOUCH
+                r = gjk_intersect(
+                    OBS_TRIANGLE, tri_b, prim_dims[p], prim_kind[p], prim_T[p], prim_dims[p]
+                )
+                if r == GJK_HIT:
+                    return GJK_HIT
+                if r == GJK_UNSURE:
+                    touch = True
     return TOUCH if touch else GJK_FREE
 
 
@@ -794,13 +882,39 @@ MODEL_FIELDS = (
     "node_tri_ids",
     "tri_V",
     "tri_sphere",
+    "pair_table",
+    "table_vars",
+    "table_n",
+    "table_off",
+    "table_values",
 )
 
 
+TABLE_FREE, TABLE_HIT = 0, 1  # as pair_tables (imported there from here)
+INV_TWO_PI = 1.0 / (2.0 * math.pi)
+
+
 @njit(cache=True, inline="always")
-def _classify_state(TB, model, W, stamp, Wi, stamp_i, cur, stack, stack2, stack3, flags):  # type: ignore[no-untyped-def]
-    """FREE / HIT / UNSURE for one state (body poses in TB). Unsure pairs are flagged
-    (world pairs first, then self pairs) for the exact stage."""
+def _table_value(q, ti, table_vars, table_n, table_off, table_values):  # type: ignore[no-untyped-def]
+    """Table ti's value at q: each of its variables' angles wrapped to [0, 2π), n cells."""
+    n = table_n[ti]
+    x = q[table_vars[ti, 0]] * INV_TWO_PI
+    idx = min(int((x - math.floor(x)) * n), n - 1)
+    v = table_vars[ti, 1]
+    if v >= 0:
+        x = q[v] * INV_TWO_PI
+        idx = idx * n + min(int((x - math.floor(x)) * n), n - 1)
+    return table_values[table_off[ti] + idx]
+
+
+@njit(cache=True, inline="always")
+def _classify_state(
+    q, TB, model, W, stamp, Wi, stamp_i, seen, pairs, cur, stack, stack2, stack3, flags
+):  # type: ignore[no-untyped-def]
+    """FREE / HIT / UNSURE for one state (full variables q, body poses in TB). Unsure pairs
+    are flagged (world pairs first, then self pairs) for the exact stage. ``seen``: per-triangle
+    marks, tagged ``cur * PAIR_TAGS + pair``. A self pair with a table (pair_tables) is looked
+    up first."""
     (
         group_idx,
         q_base,
@@ -846,6 +960,11 @@ def _classify_state(TB, model, W, stamp, Wi, stamp_i, cur, stack, stack2, stack3
         node_tri_ids,
         tri_V,
         tri_sphere,
+        pair_table,
+        table_vars,
+        table_n,
+        table_off,
+        table_values,
     ) = model
     n_world = world_pairs.shape[0]
     unsure = False
@@ -919,6 +1038,8 @@ def _classify_state(TB, model, W, stamp, Wi, stamp_i, cur, stack, stack2, stack3
                     tri_V,
                     tri_sphere,
                     stack,
+                    seen,
+                    cur * PAIR_TAGS + k,
                 )
             if r == GJK_HIT:
                 return HIT
@@ -927,6 +1048,13 @@ def _classify_state(TB, model, W, stamp, Wi, stamp_i, cur, stack, stack2, stack3
         unsure = True
         flags[k] = True
     for k in range(self_pairs.shape[0]):
+        ti = pair_table[k]
+        if ti >= 0:
+            v = _table_value(q, ti, table_vars, table_n, table_off, table_values)
+            if v == TABLE_FREE:
+                continue
+            if v == TABLE_HIT:
+                return HIT
         a = self_pairs[k, 0]
         b = self_pairs[k, 1]
         ra, rb = body_root[a], body_root[b]
@@ -988,6 +1116,9 @@ def _classify_state(TB, model, W, stamp, Wi, stamp_i, cur, stack, stack2, stack3
                 tri_sphere,
                 stack,
                 stack3,
+                seen,
+                pairs,
+                cur * PAIR_TAGS + n_world + k,
             )
             if r == GJK_FREE:
                 continue
@@ -1014,6 +1145,8 @@ def _classify_range(
     stamp,
     Wi,
     stamp_i,
+    seen,
+    pairs,
     T,
     epoch,
     flags,
@@ -1022,7 +1155,7 @@ def _classify_range(
     out,
     stop_early=False,
 ):  # type: ignore[no-untyped-def]
-    """Classify states s0..s1-1 with one thread's scratch (W, stamp, Wi, stamp_i, T).
+    """Classify states s0..s1-1 with one thread's scratch (W, stamp, Wi, stamp_i, seen, pairs, T).
     Stamps hold ``epoch + s`` for the state that last placed a sphere, so the scratch is
     reused across calls without being reset. ``stop_early``: return after the first state that
     is not FREE (the later ones keep their UNCHECKED mark)."""
@@ -1052,7 +1185,7 @@ def _classify_range(
                     )
         row = flags[s] if record_flags else scratch_row
         out[s] = _classify_state(
-            TB, model, W, stamp, Wi, stamp_i, epoch + s, stack, stack2, stack3, row
+            q, TB, model, W, stamp, Wi, stamp_i, seen, pairs, epoch + s, stack, stack2, stack3, row
         )
         if stop_early and out[s] != FREE:
             return
@@ -1063,7 +1196,7 @@ def classify_serial(qs, model, scratch, epoch, record_flags, stop_early=False): 
     """:func:`classify` in the calling thread, for batches of at most one chunk: a parallel
     function costs several microseconds more per call even when it runs serially (measured).
     ``stop_early``: stop at the first state that is not FREE; later states stay UNCHECKED."""
-    W, stamp, Wi, stamp_i, T = scratch
+    W, stamp, Wi, stamp_i, seen, pairs, T = scratch
     N = qs.shape[0]
     out = np.full(N, UNCHECKED, np.int8)
     P = model[25].shape[0] + model[26].shape[0]
@@ -1078,6 +1211,8 @@ def classify_serial(qs, model, scratch, epoch, record_flags, stop_early=False): 
         stamp[0],
         Wi[0],
         stamp_i[0],
+        seen[0],
+        pairs[0],
         T[0],
         epoch,
         flags,
@@ -1095,10 +1230,11 @@ def classify(qs, model, scratch, epoch, record_flags, chunk):  # type: ignore[no
     unsure pairs of each unsure state ((0, P) unless ``record_flags``); ``model`` as
     MODEL_FIELDS says.
 
-    ``scratch`` = (W, stamp, Wi, stamp_i, T), per-thread (leading axis: thread slot), kept by
-    the caller between calls: allocating it per call cost more than classifying a few states.
+    ``scratch`` = (W, stamp, Wi, stamp_i, seen, pairs, T), per-thread (leading axis: thread
+    slot), kept by the caller between calls: allocating it per call cost more than classifying
+    a few states.
     Chunks of ``chunk`` states are spread over the threads."""
-    W, stamp, Wi, stamp_i, T = scratch
+    W, stamp, Wi, stamp_i, seen, pairs, T = scratch
     N = qs.shape[0]
     out = np.empty(N, np.int8)
     P = model[25].shape[0] + model[26].shape[0]
@@ -1116,6 +1252,8 @@ def classify(qs, model, scratch, epoch, record_flags, chunk):  # type: ignore[no
             stamp[t],
             Wi[t],
             stamp_i[t],
+            seen[t],
+            pairs[t],
             T[t],
             epoch,
             flags,

@@ -31,6 +31,7 @@ from robocell.kinematics.fk import tree_args
 from robocell.robot.model import JointGroup, RobotModel
 from robocell.scene import _kernels as K
 from robocell.scene.objects import AttachedObject
+from robocell.scene.pair_tables import Chain, PairTable, pair_table, table_chain
 from robocell.scene.spheres import DistanceGrid, SphereTree, body_grid, body_tree
 
 if TYPE_CHECKING:
@@ -334,6 +335,23 @@ def _robot_pack(robot: RobotModel, names: tuple[str, ...]) -> Packed:
     )
 
 
+_TABLES: weakref.WeakKeyDictionary[RobotModel, dict[tuple[Any, ...], PairTable]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def _robot_table(
+    robot: RobotModel, chain: Chain, base: NDArray[np.float64], f: int, d: int, packed: Packed
+) -> PairTable:
+    """A robot's pair table, kept per robot (the disk cache is keyed by a hash of the links'
+    meshes, which costs more than building a checker)."""
+    key = (chain.upper, chain.lower, chain.variables, tuple(base[list(chain.fixed)]))
+    have = _TABLES.setdefault(robot, {})
+    if key not in have:
+        have[key] = pair_table(robot, chain, base, f, d, packed)
+    return have[key]
+
+
 _EPOCH = [0]
 _WARM = [False]  # the kernels have run once in this process
 
@@ -352,19 +370,23 @@ _SCRATCH: weakref.WeakKeyDictionary[RobotModel, tuple[NDArray[Any], ...]] = (
 )
 
 
-def _scratch(robot: RobotModel, m: int, k: int, n_links: int) -> tuple[NDArray[Any], ...]:
+def _scratch(
+    robot: RobotModel, m: int, k: int, n_tris: int, n_links: int
+) -> tuple[NDArray[Any], ...]:
     """Per-thread scratch of the kernel (see K.classify), shared by a robot's checkers and grown
     when a checker has more sphere nodes: filling tens of MB per checker cost more than the rest
     of building it (measured)."""
     slots = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
-    m, k = max(m, 1), max(k, 1)
+    m, k, n_tris = max(m, 1), max(k, 1), max(n_tris, 1)
     have = _SCRATCH.get(robot)
-    if have is None or have[0].shape[1] < m or have[2].shape[1] < k:
+    if have is None or have[0].shape[1] < m or have[2].shape[1] < k or have[4].shape[1] < n_tris:
         have = (
             np.empty((slots, m, 3)),
             np.full((slots, m), -1, np.int64),
             np.empty((slots, k, 3)),
             np.full((slots, k), -1, np.int64),
+            np.full((slots, n_tris), -1, np.int64),
+            np.full((slots, 2, K.PAIR_SET), -1, np.int64),
             np.empty((slots, n_links, 4, 4)),
         )
         _SCRATCH[robot] = have
@@ -488,12 +510,15 @@ class CollisionChecker:
         self._pair_field = np.array(
             [field_side(bodies[i], bodies[j]) for i, j in self.self_pairs], dtype=np.int64
         )
+        self._tables = self._pair_tables(packed if len(bodies) == n_robot else None, n_robot)
         args = tree_args(robot)
         self._args = args
         moving_links = sorted({int(x) for x in link_idx})
         self._joints = args.joints_to(*moving_links)
         self._group_idx = group.indices.astype(np.int64)
-        self._scratch = _scratch(robot, len(packed.nodes), len(packed.inner), args.n_links)
+        self._scratch = _scratch(
+            robot, len(packed.nodes), len(packed.inner), len(packed.triangles[3]), args.n_links
+        )
         # everything the kernel takes besides the states, in its order, built once: a call
         # then costs one tuple unpacking instead of forty attribute lookups
         # the kernel's model (K.MODEL_FIELDS), built once: a call then passes one tuple
@@ -521,8 +546,42 @@ class CollisionChecker:
             self._pair_field,
             *packed.fields,
             *packed.triangles,
+            *self._tables,
         )
         assert len(self._model) == len(K.MODEL_FIELDS)
+
+    def _pair_tables(self, packed: Packed | None, n_robot: int) -> tuple[NDArray[Any], ...]:
+        """The kernel's pair tables (see :mod:`robocell.scene.pair_tables`): pair_table (a
+        table per self pair, or −1), table_vars, table_n, table_off, table_values."""
+        robot = self.robot
+        if packed is None:
+            packed = _robot_pack(robot, tuple(b.name for b in self.bodies[:n_robot]))
+        moving = {int(i) for i in self.group.indices}
+        index = np.full(len(self.self_pairs), -1, np.int64)
+        tables: list[PairTable] = []
+        for k, (i, j) in enumerate(self.self_pairs):
+            if i >= n_robot or j >= n_robot:
+                continue
+            chain = table_chain(robot, self.bodies[i].name, self.bodies[j].name, moving)
+            if chain is None:
+                continue
+            f, d = (i, j) if robot.link_index(self.bodies[i].name) == chain.upper else (j, i)
+            if self.bodies[f].field_kind == K.FIELD_NONE:
+                continue
+            index[k] = len(tables)
+            tables.append(_robot_table(robot, chain, self.base_positions, f, d, packed))
+        sizes = [len(t.values) for t in tables]
+        return (
+            index,
+            np.array(
+                [list(t.variables) + [-1] * (2 - len(t.variables)) for t in tables], np.int64
+            ).reshape(-1, 2),
+            np.array([t.n for t in tables], np.int64),
+            np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+            if tables
+            else np.zeros(0, np.int64),
+            np.concatenate([t.values for t in tables]) if tables else np.zeros(1, np.uint8),
+        )
 
     def _warm_up(self) -> None:
         """Compile (or load from numba's cache) every kernel variant once per process, here

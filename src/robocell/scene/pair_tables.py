@@ -1,0 +1,363 @@
+"""Self-collision tables for link pairs whose relative pose depends on one or two joints.
+
+A link and a link one or two revolute joints below it (the UR5's base and upper arm, forearm and
+wrist 2, …) are close in most configurations, so the kernel's descent of their sphere trees is
+its most expensive work: on the MotionBenchMaker UR5, base_link–upper_arm_link alone cost more
+than all other pairs together. Their relative pose is a function of one or two angles, so the
+answer can be tabulated once per robot: a grid over the angles (each 2π-periodic) whose cells
+say FREE (no configuration in the cell collides), HIT (every one does) or CHECK (the kernel
+decides, as without a table).
+
+A cell is decided at its centre with a margin: a point of the lower link moves, within the
+cell, at most the angles' half-width times its distance from each joint's axis (bounded per
+node of the link's sphere tree, from its centre and radius). The cell is FREE when every node
+of the lower link's tree clears the upper link's distance field by its radius plus that margin,
+and HIT when an inner sphere of one (inside the solid) overlaps one of the other by more than
+the margin. Cells are refined from a coarse grid only where neither holds, and tables are cached
+on disk.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from robocell.kinematics._kernels import fk_into
+from robocell.kinematics.fk import tree_args
+from robocell.robot.model import REVOLUTE, RobotModel
+from robocell.scene import _kernels as K
+from robocell.scene.spheres import SPHERE_MODEL_VERSION, _cache_dir, _shape_key
+
+TABLE_FREE, TABLE_HIT = K.TABLE_FREE, K.TABLE_HIT
+TABLE_CHECK = 2
+TABLE_VERSION = 1
+CELLS = {1: 4096, 2: 1024}  # cells per axis of the finest grid, by number of angles
+COARSE = 16  # cells per axis of the first grid
+SLACK = 1e-6  # [m] added to every margin
+
+
+@dataclass
+class PairTable:
+    """FREE/HIT/CHECK over the angles of ``variables`` (indices into the robot's variable
+    vector), each wrapped to [0, 2π) and split into ``n`` cells: ``values`` is (n,) or
+    (n * n,) row-major (first variable slow)."""
+
+    variables: tuple[int, ...]
+    n: int
+    values: NDArray[np.uint8]
+
+    def lookup(self, positions: NDArray[np.float64]) -> int:
+        """The cell's value for a full variable vector (the kernel does the same)."""
+        idx = 0
+        for v in self.variables:
+            x = positions[v] / (2 * math.pi)
+            i = min(int((x - math.floor(x)) * self.n), self.n - 1)
+            idx = idx * self.n + i
+        return int(self.values[idx])
+
+
+@dataclass
+class Chain:
+    """A pair's path: ``upper`` is an ancestor link of ``lower`` (link indices); ``joints``
+    the moving joints between them, from upper to lower, and their ``variables``; ``fixed``
+    the path's variables that do not move."""
+
+    upper: int
+    lower: int
+    joints: tuple[int, ...]
+    variables: tuple[int, ...]
+    fixed: tuple[int, ...]  # the path's other variables (they keep their values)
+
+
+def table_chain(robot: RobotModel, a: str, b: str, moving: set[int]) -> Chain | None:
+    """The pair's chain if one link is an ancestor of the other and the path between them has
+    one or two moving revolute joints, each its own variable with |mult| 1 (the relative pose
+    is then 2π-periodic in each); None otherwise. ``moving``: the variables the checker
+    changes (the others keep their values)."""
+    t = robot.tree
+    ia, ib = robot.link_index(a), robot.link_index(b)
+    parent_joint = {int(c): j for j, c in enumerate(t.child_link)}
+    for upper, lower in ((ia, ib), (ib, ia)):
+        path = []
+        k = lower
+        while k != upper and k in parent_joint:
+            path.append(parent_joint[k])
+            k = int(t.parent_link[parent_joint[k]])
+        if k != upper:
+            continue
+        mov = [j for j in reversed(path) if t.var[j] >= 0 and int(t.var[j]) in moving]
+        vs = tuple(int(t.var[j]) for j in mov)
+        if not 1 <= len(mov) <= 2 or len(set(vs)) != len(vs):
+            return None
+        if any(t.type[j] != REVOLUTE or abs(t.mult[j]) != 1.0 for j in mov):
+            return None
+        fixed = tuple(sorted({int(t.var[j]) for j in path if t.var[j] >= 0} - set(vs)))
+        return Chain(upper, lower, tuple(mov), vs, fixed)
+    return None
+
+
+def _key(robot: RobotModel, chain: Chain, base: NDArray[np.float64]) -> str:
+    """The table's cache key: the two links' shapes, the path's joints and the values of the
+    path's variables that stay put."""
+    t = robot.tree
+    h = hashlib.sha1(
+        f"pair table v{TABLE_VERSION} spheres v{SPHERE_MODEL_VERSION} {CELLS} {COARSE}".encode()
+    )
+    names = t.link_names
+    for g in robot.collision_geometry:
+        if g.link in (names[chain.upper], names[chain.lower]):
+            h.update(g.link.encode())
+            h.update(_shape_key(g.shape))
+            h.update(np.round(np.asarray(g.T_link_shape, float), 12).tobytes())
+    parent_joint = {int(c): j for j, c in enumerate(t.child_link)}
+    k = chain.lower
+    while k != chain.upper:
+        j = parent_joint[k]
+        h.update(np.round(t.origin[j], 12).tobytes())
+        h.update(np.round(t.axis[j], 12).tobytes())
+        h.update(f"{t.type[j]} {t.var[j]} {t.mult[j]} {t.offset[j]} {j in chain.joints}".encode())
+        k = int(t.parent_link[j])
+    h.update(np.round(base[list(chain.fixed)], 12).tobytes())
+    return h.hexdigest()
+
+
+def pair_table(
+    robot: RobotModel,
+    chain: Chain,
+    base: NDArray[np.float64],
+    f: int,
+    d: int,
+    packed: Any,
+) -> PairTable:
+    """The table of ``chain`` from the disk cache, or built on ``packed`` (the robot's packed
+    bodies: ``f`` is the upper link's body, whose distance field is used, ``d`` the lower's)."""
+    folder = _cache_dir()
+    path = None if folder is None else folder / f"pair-{_key(robot, chain, base)}.npz"
+    if path is not None and path.is_file():
+        try:
+            with np.load(path) as z:
+                return PairTable(chain.variables, int(z["n"]), z["values"])
+        except (OSError, KeyError, ValueError):
+            pass  # a damaged cache entry is rebuilt
+    table = _build(robot, chain, base, f, d, packed)
+    if path is not None:
+        try:
+            tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
+            np.savez(tmp, n=table.n, values=table.values)
+            os.replace(tmp, path)
+        except OSError:
+            pass
+    return table
+
+
+def _reach(
+    P: NDArray[np.float64], r: NDArray[np.float64], o: NDArray[np.float64], a: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The largest distance from the axis through o along unit a of the balls (P, r)."""
+    v = P - o
+    return np.linalg.norm(v - np.outer(v @ a, a), axis=1) + r
+
+
+def _build(
+    robot: RobotModel, chain: Chain, base: NDArray[np.float64], f: int, d: int, packed: Any
+) -> PairTable:
+    args = tree_args(robot)
+    t = robot.tree
+    joints = args.joints_to(chain.upper, chain.lower)
+    dims = len(chain.variables)
+    q = base.astype(float).copy()
+    for v in chain.variables:
+        q[v] = 0.0
+    T = np.empty((args.n_links, 4, 4))
+    fk_into(q, args.all_joints, args.root, *args.arrays, T)
+    # per sphere of the lower link, how far it moves per radian of each angle (module doc)
+    lo = T[chain.lower]
+    o = [T[int(t.child_link[j]), :3, 3] for j in chain.joints]
+    a = [T[int(t.child_link[j]), :3, :3] @ t.axis[j] for j in chain.joints]
+    a = [x / np.linalg.norm(x) for x in a]
+
+    def rates(S: NDArray[np.float64]) -> NDArray[np.float64]:
+        P = S[:, :3] @ lo[:3, :3].T + lo[:3, 3]
+        if dims == 1:
+            return _reach(P, S[:, 3], o[0], a[0])
+        last = _reach(P, S[:, 3], o[1], a[1])
+        # about the first axis: via the second axis's origin, which the first carries rigidly
+        v = o[1] - o[0]
+        first = np.linalg.norm(v - (v @ a[0]) * a[0]) + np.linalg.norm(P - o[1], axis=1) + S[:, 3]
+        return first + last
+
+    node_rate = np.zeros(len(packed.nodes))
+    n0 = int(packed.body_root[d])
+    n1 = int(packed.body_root[d + 1]) if d + 1 < len(packed.body_root) else len(packed.nodes)
+    node_rate[n0:n1] = rates(packed.nodes[n0:n1])
+    i0, i1 = int(packed.inner_start[d]), int(packed.inner_start[d + 1])
+    inner_rate = np.zeros(len(packed.inner))
+    inner_rate[i0:i1] = rates(packed.inner[i0:i1]) if i1 > i0 else 0.0
+
+    n_final = CELLS[dims]
+    values = np.full((n_final,) * dims, TABLE_CHECK, np.uint8)
+    variables = np.array(chain.variables, dtype=np.int64)
+    n = COARSE
+    cells = np.array(list(np.ndindex(*(n,) * dims)), dtype=np.int64)
+    while len(cells):
+        h = 2 * math.pi / n
+        verdict = _cell_verdicts(  # type: ignore[call-arg]
+            (cells + 0.5) * h,
+            h / 2,
+            variables,
+            q,
+            joints,
+            args.root,
+            *args.arrays,
+            chain.upper,
+            chain.lower,
+            f,
+            d,
+            packed.body_root,
+            packed.nodes,
+            packed.left,
+            packed.right,
+            packed.inner_start,
+            packed.inner,
+            node_rate,
+            inner_rate,
+            *packed.fields,
+            T,
+        )
+        scale = n_final // n
+        for v in (TABLE_FREE, TABLE_HIT):
+            for ix in cells[verdict == v]:
+                values[tuple(slice(i * scale, (i + 1) * scale) for i in ix)] = v
+        if n == n_final:
+            break
+        refine = cells[verdict == TABLE_CHECK]
+        sub = np.array(list(np.ndindex(*(2,) * dims)), dtype=np.int64)
+        cells = (2 * refine[:, None, :] + sub[None, :, :]).reshape(-1, dims)
+        n *= 2
+    return PairTable(chain.variables, n_final, values.reshape(-1))
+
+
+@njit(cache=True)
+def _cell_verdicts(  # type: ignore[no-untyped-def]
+    centres,
+    half,
+    variables,
+    q_base,
+    joints,
+    root,
+    parent,
+    child,
+    origin,
+    jtype,
+    axis,
+    var,
+    mult,
+    offset,
+    upper,
+    lower,
+    f,
+    d,
+    body_root,
+    nodes,
+    left,
+    right,
+    inner_start,
+    inner,
+    node_rate,
+    inner_rate,
+    field_kind,
+    grid_origin,
+    grid_box,
+    grid_h,
+    grid_dims,
+    grid_off,
+    grid_values,
+    prim_start,
+    prim_kind,
+    prim_T,
+    prim_dims,
+    T,
+):
+    """TABLE_FREE/HIT/CHECK for cells of half-width ``half`` [rad] around ``centres``
+    (C, dims): body d (lower link) against body f (upper link)'s distance field."""
+    C = centres.shape[0]
+    out = np.empty(C, np.uint8)
+    q = q_base.copy()
+    stack = np.empty(256, np.int64)
+    R = np.empty((3, 3))
+    tv = np.empty(3)
+    for c in range(C):
+        for k in range(variables.shape[0]):
+            q[variables[k]] = centres[c, k]
+        fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
+        U = T[upper]
+        L = T[lower]
+        # the lower link's frame in the upper's: R = Ru^T Rl, t = Ru^T (tl - tu)
+        for i in range(3):
+            for j in range(3):
+                R[i, j] = U[0, i] * L[0, j] + U[1, i] * L[1, j] + U[2, i] * L[2, j]
+            tv[i] = (
+                U[0, i] * (L[0, 3] - U[0, 3])
+                + U[1, i] * (L[1, 3] - U[1, 3])
+                + U[2, i] * (L[2, 3] - U[2, 3])
+            )
+        verdict = TABLE_FREE
+        # HIT: inner spheres overlapping by more than the margin
+        for s in range(inner_start[d], inner_start[d + 1]):
+            x = R[0, 0] * inner[s, 0] + R[0, 1] * inner[s, 1] + R[0, 2] * inner[s, 2] + tv[0]
+            y = R[1, 0] * inner[s, 0] + R[1, 1] * inner[s, 1] + R[1, 2] * inner[s, 2] + tv[1]
+            z = R[2, 0] * inner[s, 0] + R[2, 1] * inner[s, 1] + R[2, 2] * inner[s, 2] + tv[2]
+            for u in range(inner_start[f], inner_start[f + 1]):
+                dx, dy, dz = x - inner[u, 0], y - inner[u, 1], z - inner[u, 2]
+                depth = inner[s, 3] + inner[u, 3] - math.sqrt(dx * dx + dy * dy + dz * dz)
+                if depth > inner_rate[s] * half + SLACK:
+                    verdict = TABLE_HIT
+                    break
+            if verdict == TABLE_HIT:
+                break
+        if verdict == TABLE_HIT:
+            out[c] = verdict
+            continue
+        # FREE: every node of d's tree clears f's field by its radius plus its margin
+        sp = 1
+        stack[0] = body_root[d]
+        while sp > 0:
+            sp -= 1
+            n = stack[sp]
+            x = R[0, 0] * nodes[n, 0] + R[0, 1] * nodes[n, 1] + R[0, 2] * nodes[n, 2] + tv[0]
+            y = R[1, 0] * nodes[n, 0] + R[1, 1] * nodes[n, 1] + R[1, 2] * nodes[n, 2] + tv[1]
+            z = R[2, 0] * nodes[n, 0] + R[2, 1] * nodes[n, 1] + R[2, 2] * nodes[n, 2] + tv[2]
+            b = K._field_bound(
+                x,
+                y,
+                z,
+                f,
+                field_kind,
+                grid_origin,
+                grid_box,
+                grid_h,
+                grid_dims,
+                grid_off,
+                grid_values,
+                prim_start,
+                prim_kind,
+                prim_T,
+                prim_dims,
+            )
+            if b > nodes[n, 3] + node_rate[n] * half + SLACK:
+                continue
+            if left[n] < 0:
+                verdict = TABLE_CHECK
+                break
+            stack[sp] = left[n]
+            stack[sp + 1] = right[n]
+            sp += 2
+        out[c] = verdict
+    return out
