@@ -43,7 +43,7 @@ def main() -> None:
         print(f"{k:6d} {done:6d}/{len(rows)} {wall:7.1f} {robot:15.2f}", flush=True)
         for r in rows:
             if not r.in_tray:  # as they happen, so that a cut-short run still says why
-                print(f"{'':6}   {r.name}: {r.note[:150]}", flush=True)
+                print(f"{'':6}   {r.name}: {r.note[:400]}", flush=True)
     print(
         f"\n{ok}/{total} objects in their trays ({100 * ok / max(total, 1):.1f} %) over "
         f"{args.layouts} layouts; wall per layout median {statistics.median(walls):.1f} s, "
@@ -54,7 +54,7 @@ def main() -> None:
     if failures:
         print("\nfailures (layout, object, stage: reason):")
         for k, name, note in failures:
-            print(f"  {k:4d} {name:15} {note[:160]}")
+            print(f"  {k:4d} {name:15} {note[:400]}")
 
 
 if __name__ == "__main__":

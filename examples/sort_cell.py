@@ -1,7 +1,8 @@
 """Sort the sorting cell's eight objects into their trays, by colour or by shape.
 
 For each object: grasp candidates from its shape and pose (from above when the wrist reaches
-over it, else from the side), pick with the first that works, then put it in its tray on a free
+over it, else from the side); a box whose only pinch is out of reach is first turned by pushes
+near one end (in physics); pick with the first grasp that works, then put it in its tray on a free
 spot the arm reaches: set down on the floor, else released just above the walls, else released
 from the cell's place point for that tray, as the seed exercise does.
 
@@ -13,17 +14,18 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from robocell.cell import Cell
-from robocell.geometry import Pose
+from robocell.geometry import Box, Pose
 from robocell.grasping import (
     Grasp,
     PlaceLocation,
     generate_grasps,
     generate_places,
+    generate_pushes,
     reachable_places,
 )
 from robocell.manipulation import Manipulator
@@ -39,7 +41,8 @@ class Row:
     planning_ms: float
     robot_s: float
     in_tray: bool
-    note: str = ""
+    note: str = ""  # why it is not in its tray: what went wrong at each attempt
+    history: list[str] = field(default_factory=list)
 
 
 def tray_of(cell: Cell, name: str, by: str) -> str:
@@ -83,20 +86,30 @@ def place_candidates(
 def sort(cell: Cell, by: str = "color", attempts: int = 3) -> list[Row]:
     """Sort every object into its tray; an object that is not in its tray after a pick and
     place (it slipped, dropped, rolled off) is picked again from where it lies, up to
-    ``attempts`` times."""
+    ``attempts`` times. An object no grasp reaches yet waits until the others are sorted
+    (a neighbour nearer the robot can be what the arm would hit)."""
     hand = Manipulator(cell)
-    rows = []
-    for o in cell.spec.objects:
-        tray = tray_of(cell, o.name, by)
-        row = Row(o.name, tray, "-", 0.0, 0.0, False)
+    rows = {
+        o.name: Row(o.name, tray_of(cell, o.name, by), "-", 0.0, 0.0, False)
+        for o in cell.spec.objects
+    }
+    queue = [o.name for o in cell.spec.objects]
+    waited: set[str] = set()
+    while queue:
+        name = queue.pop(0)
+        row = rows[name]
         for _ in range(attempts):
-            note = sort_one(cell, hand, o.name, tray, row)
-            row.in_tray = cell.inside(o.name, tray)  # at rest: the place step settled it
-            row.note = "" if row.in_tray else note or "place: not in its tray"
+            note = sort_one(cell, hand, name, row.tray, row)
+            row.in_tray = cell.inside(name, row.tray)  # at rest: the place step settled it
+            if not row.in_tray:
+                row.history.append(note or "place: not in its tray")
+            row.note = "" if row.in_tray else " / ".join(row.history)
             if row.in_tray or note.startswith("pick: no grasp"):
                 break
-        rows.append(row)
-    return rows
+        if not row.in_tray and note.startswith("pick: no grasp") and queue and name not in waited:
+            waited.add(name)
+            queue.append(name)
+    return list(rows.values())
 
 
 def sort_one(cell: Cell, hand: Manipulator, name: str, tray: str, row: Row) -> str:
@@ -107,8 +120,27 @@ def sort_one(cell: Cell, hand: Manipulator, name: str, tray: str, row: Row) -> s
     t0 = time.perf_counter()
     grasps = generate_grasps(name, o.shape, T, hand.geometry, cell.scene, "arm")
     row.planning_ms += (time.perf_counter() - t0) * 1e3
+    turns, why = 0, ""
+    while not grasps and isinstance(o.shape, Box) and cell.world is not None and turns < 4:
+        # no pinch reaches it: its pinch faces the robot from too far. Turn it with pushes
+        # near one end until one does
+        t0 = time.perf_counter()
+        pushes = generate_pushes(name, o.shape, T, hand.geometry, cell.scene, "arm")
+        row.planning_ms += (time.perf_counter() - t0) * 1e3
+        pushed = hand.push(name, pushes)
+        row.planning_ms += pushed.planning_time * 1e3
+        row.robot_s += pushed.robot_time
+        if not pushed.success:
+            why = f"; push: {pushed.reason}"
+            break
+        turns += 1
+        T = cell.object_pose(name)
+        t0 = time.perf_counter()
+        grasps = generate_grasps(name, o.shape, T, hand.geometry, cell.scene, "arm")
+        row.planning_ms += (time.perf_counter() - t0) * 1e3
     if not grasps:
-        return f"pick: no grasp candidates for {name!r}"
+        turned = f" ({turns} pushes turned it)" if turns else ""
+        return f"pick: no grasp candidates for {name!r}{turned}{why}"
     picked = hand.pick(name, grasps)
     row.planning_ms += picked.planning_time * 1e3
     row.robot_s += picked.robot_time

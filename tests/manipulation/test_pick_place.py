@@ -100,3 +100,96 @@ def test_a_pick_stops_when_the_object_moved_during_it():
         "red_box", o.shape, cell.object_pose("red_box"), man.geometry, cell.scene, "arm"
     )
     assert man.pick("red_box", fresh).success
+
+
+def _yaw(T: Pose) -> float:
+    R = T.rotation()
+    return float(np.arctan2(R[1, 0], R[0, 0]))
+
+
+def test_a_push_turns_a_box_whose_pinch_is_out_of_reach():
+    """The blue box at the far edge, its long side facing the robot: no pinch reaches it. A push
+    near one end of its near face turns it toward the line to the robot (the shorter way round,
+    as generate_pushes predicts), keeps it upright on the conveyor, and a few pushes make it
+    graspable."""
+    from robocell.grasping import generate_pushes
+
+    cell = Cell.load("sorting", mode="physics", time_scale=0)
+    man = Manipulator(cell)
+    name = "blue_box"
+    o = cell.spec.object(name)
+    start = cell.object_pose(name)
+    # at (0.67, -0.15) (the robot's base is above the origin), its long axis 75° from the line
+    # to the robot; the red box, in front of it, out of the way
+    yaw = np.arctan2(-0.15, 0.67) + np.radians(75)
+    c, s = np.cos(yaw / 2), np.sin(yaw / 2)
+    cell.world.set_object_pose(name, Pose((0.67, -0.15, start.position[2]), (0.0, 0.0, s, c)))
+    red = cell.object_pose("red_box")
+    cell.world.set_object_pose("red_box", Pose((0.45, -0.6, red.position[2])))
+    cell.world.step(200)
+    cell.sync_scene()
+    T = cell.object_pose(name)
+    assert not generate_grasps(name, o.shape, T, man.geometry, cell.scene, "arm")
+    turns = 0
+    before = T
+    while turns < 4:
+        pushes = generate_pushes(name, o.shape, before, man.geometry, cell.scene, "arm")
+        assert pushes, "no push reaches the box"
+        pushed = man.push(name, pushes)
+        assert pushed.success, pushed.reason
+        turns += 1
+        after = cell.object_pose(name)
+        # turned clockwise (toward the line to the robot, 75° away the short way)
+        turn = np.degrees(np.angle(np.exp(1j * (_yaw(after) - _yaw(before)))))
+        assert -60 < turn < -3, turn
+        assert after.rotation()[2, 2] > 0.99  # upright
+        assert abs(after.position[2] - start.position[2]) < 0.005  # on the conveyor
+        if generate_grasps(name, o.shape, after, man.geometry, cell.scene, "arm"):
+            break
+        before = after
+    assert generate_grasps(name, o.shape, cell.object_pose(name), man.geometry, cell.scene, "arm")
+
+
+def test_push_refuses_bad_input():
+    from robocell.grasping import generate_pushes
+
+    cell = Cell.load("sorting", mode="physics", time_scale=0)
+    man = Manipulator(cell)
+    ball = cell.spec.object("blue_ball")
+    with pytest.raises(GraspError, match="boxes"):
+        generate_pushes("blue_ball", ball.shape, cell.object_pose("blue_ball"), man.geometry,
+                        cell.scene, "arm")  # fmt: skip
+    with pytest.raises(GraspError, match="unknown object"):
+        man.push("purple_box", [])
+    kinematic = Cell.load("sorting", mode="kinematic", time_scale=0)
+    with pytest.raises(GraspError, match="physics"):
+        Manipulator(kinematic).push("red_box", [])
+
+
+def test_a_held_object_keeps_its_padding_clear_of_the_world():
+    """A held object's padding counts in collision checks (it swings a little in the fingers),
+    and it may touch every link of the hand, the gripper's body included."""
+    cell = Cell.load("sorting", mode="kinematic", time_scale=0)
+    man = Manipulator(cell)
+    name = "red_box"
+    o = cell.spec.object(name)
+    grasps = generate_grasps(name, o.shape, cell.object_pose(name), man.geometry, cell.scene, "arm")
+    assert man.pick(name, grasps).success
+    scene = cell.scene
+    att = scene.attached_objects[name]
+    assert {"gripper_base_link", *man.finger_links} <= att.touch_links
+    arm = scene.robot.group("arm")
+    q = scene.state.group_positions(arm)
+    box = scene.link_pose(att.link) * att.object.pose
+    bottom = box.position[2] - 0.5 * o.size[2]
+    # a plate 5 mm under the held box: clear without padding, hit with 1 cm of it
+    scene.add_box("plate", Pose((box.position[0], box.position[1], bottom - 0.005 - 0.005)),
+                  (0.2, 0.2, 0.01))  # fmt: skip
+    scene.set_object_padding(name, 0.0)
+    assert not scene.checker(arm).check(q[None])[0]
+    scene.set_object_padding(name, 0.01)
+    assert scene.checker(arm).check(q[None])[0]
+    assert ("plate", name) in {tuple(sorted(p)) for p in scene.colliding_pairs(q, "arm")} or (
+        name,
+        "plate",
+    ) in {tuple(p) for p in scene.colliding_pairs(q, "arm")}

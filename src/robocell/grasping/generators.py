@@ -13,6 +13,7 @@ touch the fingers).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,7 +21,13 @@ from numpy.typing import NDArray
 from robocell.errors import GraspError
 from robocell.geometry.pose import Pose
 from robocell.geometry.shapes import Box, Cylinder, Shape, Sphere
-from robocell.grasping.grasp import Grasp, GripperGeometry, GripperTranslation, PlaceLocation
+from robocell.grasping.grasp import (
+    Grasp,
+    GripperGeometry,
+    GripperTranslation,
+    PlaceLocation,
+    Push,
+)
 from robocell.kinematics.ik import NumericIK, ik_solver, solve_ik
 from robocell.robot.model import JointGroup
 from robocell.scene.planning_scene import PlanningScene
@@ -99,7 +106,12 @@ def generate_grasps(
         T_w_tcp = np.eye(4)
         T_w_tcp[:3, :3], T_w_tcp[:3, 3] = R, tcp
         T_w_eef = T_w_tcp @ np.linalg.inv(gripper.T_eef_tcp)
-        q = quality * (1.0 - 0.3 * width / gripper.open_width)
+        # where along the pads the object's centre sits: mid-pad holds best, the fingertips
+        # worst (a ball pinched at the tips flew out on a full-speed transfer, measured)
+        depth = float((c_o - tcp) @ approach)  # ahead of the tcp, along the approach
+        mid = 0.5 * (gripper.finger_reach - pad_back)
+        along = max(0.0, 1.0 - abs(depth - mid) / max(0.5 * gripper.pad_length, 1e-6))
+        q = quality * (1.0 - 0.3 * width / gripper.open_width) * (0.6 + 0.4 * along)
         out.append(
             Grasp(
                 f"{object_id}/{kind}/{len(out)}",
@@ -271,6 +283,152 @@ def reachable_places(
         loc
         for i, loc in enumerate(places)
         if found[2 * i] is not None and found[2 * i + 1] is not None
+    ]
+
+
+def generate_pushes(
+    object_id: str,
+    shape: Shape,
+    T_world_object: Pose,
+    gripper: GripperGeometry,
+    scene: PlanningScene,
+    arm: str,
+    distances: tuple[float, ...] = (0.04, 0.03, 0.02),
+    tilts_deg: tuple[float, ...] = (30.0, 45.0, 60.0, 75.0, 15.0, 0.0),
+    clearance: float = 0.01,
+    inset: float = 0.012,
+    descent: float = 0.05,
+    sideways_deg: tuple[float, ...] = (35.0, 0.0),
+) -> list[Push]:
+    """Pushes that turn an upright box about the vertical: the closed fingers come down beside
+    the face that looks most toward the arm's base, ``inset`` [m] in from one end of it, and push
+    that end straight away from the base, by the longest of ``distances`` [m] the arm reaches.
+    A box pushed near one end turns about a point beyond its centre, on the side away from the
+    pushed end (for a slender box about a sixth of its length, in quasi-static pushing with
+    uniform support), so each push turns it by about distance / (2/3 of its length) and moves
+    its centre little: for a box whose only pinch faces the base, out of reach, a few pushes
+    bring a pinch within reach.
+
+    The gripper leans toward the base by each tilt (what lets the arm reach a far face), its
+    fingers closed along the face, their lowest point just above the support. Only pushes the
+    arm reaches collision-free at the start and at its end are kept, each with its IK solution,
+    in order of distance, then tilt, then end."""
+    if not isinstance(shape, Box):
+        raise GraspError(f"turning pushes are made for boxes, not {shape.kind}")
+    if not distances or min(distances) <= 0 or clearance < 0:
+        raise GraspError(f"need distances > 0 and clearance >= 0, got {distances}, {clearance}")
+    group = scene.robot.group(arm)
+    T = T_world_object.matrix()
+    R_o, c_o = T[:3, :3], T[:3, 3]
+    half = 0.5 * np.asarray(shape.size, dtype=float)
+    bottom = c_o[2] - half[2]
+    base = scene.link_pose(group.base_link).position
+    to_base = base[:2] - c_o[:2]
+    to_base = np.array([*to_base, 0.0]) / max(float(np.linalg.norm(to_base)), 1e-9)
+    # the face whose outward normal looks most toward the base (a box's side faces: ±x, ±y)
+    k = max(range(4), key=lambda i: (R_o[:, i // 2] * (1 if i % 2 else -1)) @ to_base)
+    axis, sign = k // 2, (1 if k % 2 else -1)
+    n = R_o[:, axis] * sign
+    n = n - n[2] * np.array([0.0, 0.0, 1.0])
+    n /= np.linalg.norm(n)
+    push_dir = -n
+    u = np.cross(np.array([0.0, 0.0, 1.0]), n)  # along the face
+    half_n, half_u = half[axis], half[1 - axis]
+    if half_u - inset <= 0:
+        return []
+    # which end: pushing the +u end turns the box counter-clockwise (u toward -n). The turn
+    # that brings its long axis onto the line to the base the shorter way (the pinch across
+    # its short side then faces the base's side)
+    long_axis = R_o[:, int(np.argmax(half[:2]))]
+    to_radial = (
+        math.atan2(-to_base[1], -to_base[0]) - math.atan2(long_axis[1], long_axis[0])
+    ) % math.pi
+    ends = (
+        (1.0,)
+        if to_radial < math.radians(80)
+        else (-1.0,)
+        if to_radial > math.radians(100)
+        else (1.0, -1.0)
+    )
+    P = gripper.closed_points if len(gripper.closed_points) else gripper.points
+    z_w = np.array([0.0, 0.0, 1.0])
+    starts: list[tuple[Pose, NDArray[np.float64], float]] = []
+    for tilt in np.radians(tilts_deg):
+        approach = -math.cos(tilt) * z_w + math.sin(tilt) * push_dir  # leaning toward the base
+        R = _frame(approach, u, gripper)
+        W = P @ R.T  # the gripper's points relative to its tcp, world axes
+        lead = W @ push_dir
+        front = W[lead >= lead.max() - 0.005]  # what meets the face first
+        for end in ends:
+            # the tcp from its parts along push_dir, u and z (orthonormal): the leading points
+            # `clearance` before the face, the front's middle `inset` in from the end, the
+            # lowest point 4 mm above the support
+            tcp = (
+                (float(c_o @ push_dir) - half_n - clearance - float(lead.max())) * push_dir
+                + (float(c_o @ u) + end * (half_u - inset) - float((front @ u).mean())) * u
+                + (bottom + 0.004 - float((W @ z_w).min())) * z_w
+            )
+            T_w_tcp = np.eye(4)
+            T_w_tcp[:3, :3], T_w_tcp[:3, 3] = R, tcp
+            T_w_eef = T_w_tcp @ np.linalg.inv(gripper.T_eef_tcp)
+            contact = c_o + half_n * n + end * (half_u - inset) * u
+            contact[2] = bottom + 0.5 * min(2 * half[2], 0.03)
+            starts.append((Pose.from_matrix(T_w_eef), contact, end))
+    # first pushed obliquely, toward the pushed end's side (inside the contact's friction
+    # cone): the push turns the box more and drives it less away from the base (measured:
+    # 14–18° for 11–13 mm, against 14–29° for 23–32 mm straight); then straight
+    out = []
+    for d in sorted(distances, reverse=True):
+        for side in sideways_deg:
+            a = math.radians(side)
+            for pose, contact, end in starts:
+                along = -n * math.cos(a) + end * u * math.sin(a)
+                out.append(
+                    Push(
+                        f"{object_id}/push/{len(out)}",
+                        pose,
+                        GripperTranslation(tuple(along), d, d + clearance),  # type: ignore[arg-type]
+                        descent,
+                        (float(contact[0]), float(contact[1]), float(contact[2])),
+                        0.0,
+                    )
+                )
+    out = [replace(p, quality=1.0 - i / len(out)) for i, p in enumerate(out)]
+    return _reachable_pushes(out, scene, group, gripper, object_id)
+
+
+def _reachable_pushes(
+    pushes: list[Push],
+    scene: PlanningScene,
+    group: JointGroup,
+    gripper: GripperGeometry,
+    object_id: str,
+) -> list[Push]:
+    """The pushes whose start, start before the descent and end the arm reaches without
+    collision, with the gripper closed (the pushed object is checked too: the fingers start
+    clear of it), each with its IK solution at the start."""
+    work = scene.copy()
+    work.set_joint_positions(gripper.group, [gripper.closed_command])
+    if object_id in work.world_objects:
+        work.set_object_padding(object_id, 0.0)
+    T_base_world = np.linalg.inv(work.link_pose(group.base_link).matrix())
+    seed = work.state.group_positions(group)
+    targets = []
+    for p in pushes:
+        start = p.pose.matrix()
+        above, end = start.copy(), start.copy()
+        above[2, 3] += p.descent
+        end[:3, 3] += p.push.vector()
+        targets += [T_base_world @ start, T_base_world @ above, T_base_world @ end]
+    found = _free_ik(work, group, gripper.eef_link, targets[0::3], seed)
+    other = _free_ik(work, group, gripper.eef_link, targets[1::3], seed)
+    # at the end the gripper is where the object was (it has moved on): not a collision
+    work.allow_collision(object_id, work.robot.link_names)
+    ends = _free_ik(work, group, gripper.eef_link, targets[2::3], seed)
+    return [
+        Push(**{**p.__dict__, "joint_positions": q})  # type: ignore[arg-type]
+        for p, q, a, e in zip(pushes, found, other, ends, strict=True)
+        if q is not None and a is not None and e is not None
     ]
 
 

@@ -81,13 +81,32 @@ class PlaceLocation:
 
 
 @dataclass(frozen=True)
+class Push:
+    """A straight push of an object with the closed gripper (non-prehensile manipulation, to
+    turn or move an object no grasp reaches): ``pose`` of the end-effector link where the push
+    starts (the fingers beside the object's face, not touching it), reached by coming straight
+    down ``descent`` [m]; then the straight ``push``. ``contact``: the point of the face the
+    fingers meet (world); ``joint_positions``: an IK solution at ``pose``."""
+
+    id: str
+    pose: Pose
+    push: GripperTranslation
+    descent: float
+    contact: tuple[float, float, float]
+    quality: float
+    joint_positions: NDArray[np.float64] | None = field(default=None, compare=False)
+
+
+@dataclass(frozen=True)
 class GripperGeometry:
     """A parallel gripper as its description has it, in the end-effector link's frame:
     ``approach`` and ``closing`` axes (unit), the ``T_eef_tcp`` transform, the opening [m] at
     the open and closed commands, the fingers' length along the approach, how far behind the
     tcp the gripper's body starts (what must clear an object's top), how far the fingers reach
     beyond the tcp (what must clear the surface under it), and the half height of the whole
-    gripper across both axes (what must clear that surface in a side grasp)."""
+    gripper across both axes (what must clear that surface in a side grasp). ``points`` and
+    ``closed_points``: vertices of its collision shapes, open and closed, relative to the tcp
+    (eef axes)."""
 
     eef_link: str
     tcp_link: str
@@ -105,6 +124,9 @@ class GripperGeometry:
     body_half_height: float = 0.0
     points: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)), compare=False)
     pad_width: float = 0.0
+    closed_points: NDArray[np.float64] = field(
+        default_factory=lambda: np.zeros((0, 3)), compare=False
+    )
 
     def lowest(self, R_world_eef: NDArray[np.float64]) -> float:
         """How far [m] the open gripper reaches below its tcp when turned by ``R_world_eef``
@@ -225,9 +247,10 @@ class GripperGeometry:
         third = np.cross(approach, closing)
         fingers = np.vstack(vertices(T_open, moving))
         everything = np.vstack(body + vertices(T_open, moving)) if body else np.zeros((1, 3))
+        closed = np.vstack(vertices(T_closed, body_links) + vertices(T_closed, moving))
         return cls(
             eef, tcp, gripper_group, T_eef_tcp, approach, closing, lo, hi, w_lo, w_hi,
             float(pads.max() - pads.min()), clearance, float(pads.max()),
             float(np.abs(everything @ third).max()), everything,
-            float(np.ptp(fingers @ third)),
+            float(np.ptp(fingers @ third)), closed,
         )  # fmt: skip

@@ -20,7 +20,7 @@ from robocell.cell.cell import Cell
 from robocell.cell.move_group import MoveGroup
 from robocell.errors import GraspError, RobocellError
 from robocell.geometry.pose import Pose
-from robocell.grasping.grasp import Grasp, GripperTranslation, PlaceLocation
+from robocell.grasping.grasp import Grasp, GripperTranslation, PlaceLocation, Push
 from robocell.trajectory.timing import ptp
 
 
@@ -77,8 +77,11 @@ class Manipulator:
     """Pick and place for the cell's arm and gripper. :meth:`stop` (from another thread) ends
     the running pick or place at its next stage, with the robot held where it is."""
 
-    def __init__(self, cell: Cell, planning_time: float = 1.0) -> None:
+    def __init__(
+        self, cell: Cell, planning_time: float = 1.0, carry_acceleration: float = 0.5
+    ) -> None:
         self.cell = cell
+        self.carry_acceleration = carry_acceleration  # acceleration scaling with an object held
         spec = cell.robot_spec
         if spec.gripper is None:
             raise GraspError(f"robot {spec.name!r} has no gripper group in its cell file")
@@ -93,6 +96,14 @@ class Manipulator:
         self.arm.set_end_effector_link(self.geometry.eef_link)
         self.arm.set_planning_time(planning_time)
         self.finger_links = cell.robot.group(spec.gripper).link_names
+        # what a held object may touch: the fingers and everything welded to the gripper's
+        # mount (its body, the flange): a held object's padding can reach them
+        tree, robot = cell.robot.tree, cell.robot
+        mount = tree.rigid_root(robot.link_index(self.geometry.eef_link))
+        self.hand_links = sorted(
+            {*self.finger_links}
+            | {lk for lk in robot.link_names if tree.rigid_root(robot.link_index(lk)) == mount}
+        )
         self._plan_s = 0.0
         self._robot_s = 0.0
         self._stop = threading.Event()
@@ -227,7 +238,7 @@ class Manipulator:
                     raise _Failed("close", "the fingers closed but do not hold the object")
                 result.stages.append(StageResult(g.id, "close", True))
                 cell.sync_scene()
-                self.arm.attach_object(name, touch_links=self.finger_links)
+                self.arm.attach_object(name, touch_links=self.hand_links)
                 before = cell.held_offset(name) if cell.world is not None else None
                 self._retreat(
                     g.post_grasp_retreat.vector(), g.post_grasp_retreat.min_distance, name
@@ -251,6 +262,70 @@ class Manipulator:
             except RobocellError as exc:
                 result.stages.append(StageResult(g.id, "plan", False, str(exc)))
                 self._recover(name)
+
+    # ------------------------------------------------------------------ push
+    def push(self, name: str, pushes: list[Push]) -> ManipulationResult:
+        """Push object ``name`` with the first push (in quality order) that works: close the
+        gripper, move above the push's start, come straight down beside the object, push in a
+        straight line (the fingers may touch the object), lift straight up. The result's
+        reason says how far the object moved and turned. Physics only: in kinematic mode
+        nothing moves what the gripper touches."""
+        cell, scene = self.cell, self.cell.scene
+        if name not in cell.object_names:
+            raise GraspError(f"unknown object {name!r}; known: {', '.join(cell.object_names)}")
+        if cell.world is None:
+            raise GraspError("pushing needs physics: in kinematic mode objects do not move")
+        if name in scene.attached_objects:
+            raise GraspError(f"object {name!r} is held: place or release it first")
+        self._plan_s = self._robot_s = 0.0
+        self._stop.clear()
+        result = ManipulationResult(False)
+        if not pushes:
+            result.reason = f"no push candidates for {name!r}"
+            return result
+        before = cell.object_pose(name)
+        padding = scene.object_padding(name)
+        scene.set_object_padding(name, 0.0)  # the fingers come down right beside it
+        try:
+            for p in sorted(pushes, key=lambda x: -x.quality):
+                try:
+                    cell.sync_scene()
+                    self._gripper(self.geometry.closed_command)
+                    result.stages.append(StageResult(p.id, "close", True))
+                    above = Pose(
+                        p.pose.position + np.array([0.0, 0.0, p.descent]), p.pose.orientation
+                    )
+                    self._move_to(above)
+                    result.stages.append(StageResult(p.id, "move", True))
+                    self._line("descend", np.array([0.0, 0.0, -p.descent]), p.descent)
+                    result.stages.append(StageResult(p.id, "descend", True))
+                    scene.allow_collision(name, self.finger_links)
+                    self._line("push", p.push.vector(), p.push.min_distance)
+                    result.stages.append(StageResult(p.id, "push", True))
+                    cell.sync_scene()
+                    self._retreat(np.array([0.0, 0.0, p.descent]), 0.5 * p.descent, name)
+                    result.stages.append(StageResult(p.id, "retreat", True))
+                    result.success, result.candidate = True, p.id
+                    break
+                except _Stopped as f:
+                    result.stages.append(StageResult(p.id, f.stage, False, f.reason))
+                    self.cell.sync_scene()
+                    break
+                except _Failed as f:
+                    result.stages.append(StageResult(p.id, f.stage, False, f.reason))
+                    if f.stage != "move" and f.stage != "close":
+                        break  # the gripper went down: the object may have moved
+                except RobocellError as exc:
+                    result.stages.append(StageResult(p.id, "plan", False, str(exc)))
+                finally:
+                    scene.allow_collision(name, self.finger_links, False)
+        finally:
+            scene.set_object_padding(name, padding)
+            cell.sync_scene()
+        moved = _moved(before, cell.object_pose(name), 0.0, 0.0)
+        if result.success:
+            result.reason = f"moved {moved}"
+        return self._finish(result, len(pushes), "pushes")
 
     def release(self, name: str) -> None:
         """Let go of a held object where it is (open the gripper, detach it): after a place
@@ -317,17 +392,29 @@ class Manipulator:
         result = ManipulationResult(False)
         for loc in sorted(locations, key=lambda x: -x.quality):
             try:
-                dist = self._move_to_pre(loc.pose, loc.pre_place_approach)
+                # carried gently: a pinch that holds at rest can let go under the arm's full
+                # accelerations (measured: a pinched cylinder swung out on the way)
+                self.arm.set_max_acceleration_scaling_factor(self.carry_acceleration)
+                try:
+                    dist = self._move_to_pre(loc.pose, loc.pre_place_approach)
+                finally:
+                    self.arm.set_max_acceleration_scaling_factor(1.0)
                 if cell.world is not None and not cell.is_grasped(name):
                     scene.detach_object(name)  # it lies where it fell: nothing is held
                     cell.sync_scene()
                     raise _Failed("move", "the object dropped out of the gripper on the way")
                 result.stages.append(StageResult(loc.id, "move", True))
-                self._line(
-                    "approach",
-                    loc.pre_place_approach.vector(dist),
-                    loc.pre_place_approach.min_distance,
-                )
+                # the object goes right down onto its place: no padding on the way down
+                padding = scene.object_padding(name)
+                scene.set_object_padding(name, 0.0)
+                try:
+                    self._line(
+                        "approach",
+                        loc.pre_place_approach.vector(dist),
+                        loc.pre_place_approach.min_distance,
+                    )
+                finally:
+                    scene.set_object_padding(name, padding)
                 result.stages.append(StageResult(loc.id, "approach", True))
                 self._gripper(loc.post_place_posture)
                 cell.sync_scene()

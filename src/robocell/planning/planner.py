@@ -113,17 +113,20 @@ class Planner:
             if cfg.shortcut:
                 budget = max(cfg.shortcut_min_states, edges.stats.states)
                 path = shortcut(edges, path, rng, deadline, budget=budget)
-            ok, dev, why = self._validate(checker, path, edges)
+            ok, dev, bad = self._validate(checker, path)
             if not ok and planner_name.lower() in NATIVE_PLANNERS:
                 # repair the segments that collide between checked states, each by a search
                 # between its ends at the validation resolution, before replanning it all
                 repaired = self._repair(checker, path, group, rng, deadline)
                 if repaired is not None:
                     path = repaired
-                    ok, dev, why = self._validate(checker, path, edges)
+                    ok, dev, bad = self._validate(checker, path)
                     stats["repairs"] = stats.get("repairs", 0) + 1
             if not ok:
-                reason = why
+                reason = (
+                    f"the path found at resolution {edges.resolution} rad collides between "
+                    f"checked states ({_pairs(checker, bad)}); replanning finer"
+                )
                 resolution = max(resolution / 2, cfg.validation_resolution)
                 continue
             found += 1
@@ -357,28 +360,23 @@ class Planner:
         self,
         checker: CollisionChecker,
         path: NDArray[np.float64],
-        edges: Edges,
-    ) -> tuple[bool, float, str]:
+    ) -> tuple[bool, float, NDArray[np.float64]]:
         """Check the path as it will be executed (corners rounded) at the validation
-        resolution: (valid, corner deviation to execute it with, reason). If only a rounded
-        corner collides, the corners are kept sharp (the motion stops at each) instead."""
+        resolution: (valid, corner deviation to execute it with, the first colliding state or
+        an empty array). If only a rounded corner collides, the corners are kept sharp (the
+        motion stops at each) instead."""
         res = self.config.validation_resolution
         dev = self.config.max_deviation
         if dev > 0 and len(path) > 2:
             hit = checker.check(BlendedPath(path, dev).sample_states(res))
             if not hit.any():
-                return True, dev, ""
+                return True, dev, np.empty(0)
         sharp = BlendedPath(path, 0.0).sample_states(res)
         hit_sharp = checker.check(sharp)
         if not hit_sharp.any():
-            return True, 0.0, ""
-        k = int(np.argmax(hit_sharp))
-        return (
-            False,
-            0.0,
-            f"the path found at resolution {edges.resolution} rad collides between checked "
-            f"states ({_pairs(checker, sharp[k])}); replanning finer",
-        )
+            return True, 0.0, np.empty(0)
+        # naming the colliding pair costs as much as the check: the caller does it if needed
+        return False, 0.0, sharp[int(np.argmax(hit_sharp))]
 
 
 def _check_request(request: MotionPlanRequest) -> None:

@@ -421,8 +421,10 @@ class CollisionChecker:
             for link, s in spheres.items()
         ]
         for att in scene.attached_objects.values():
+            # a held object's padding keeps it clear of the world on the way (it swings)
+            pad = scene.object_padding(att.id)
             shapes = [
-                (sh, p.matrix())
+                (padded(sh, pad), p.matrix())
                 for sh, p in zip(att.object.shapes, att.object.shape_poses, strict=True)
             ]
             tree = body_tree(shapes)

@@ -105,9 +105,10 @@ class PlanningScene:
         self._changed()
 
     def set_object_padding(self, id: str, padding: float) -> None:
-        """Plan ``padding`` [m] clear of a world object: its shapes count grown by that much
+        """Plan ``padding`` [m] clear of an object: its shapes count grown by that much
         (boxes, cylinders and spheres) in every collision check, so that a path that grazes
-        it in the plan does not knock it over in the world. 0 removes the padding."""
+        a world object in the plan does not knock it over in the world, and a held object,
+        which swings a little in the fingers, does not hit the world. 0 removes the padding."""
         if id not in self._world and id not in self._attached:
             raise SceneError(unknown("object", id, [*self._world, *self._attached]))
         p = float(padding)
@@ -126,7 +127,7 @@ class PlanningScene:
         self._changed()
 
     def object_padding(self, id: str) -> float:
-        """The padding [m] of a world object (0 if none)."""
+        """The padding [m] of an object, in the world or held (0 if none)."""
         return self._padding.get(id, 0.0)
 
     def add_shape(
