@@ -82,8 +82,9 @@ def generate_grasps(
     max_grasps: int = 0,
 ) -> list[Grasp]:
     """Ranked grasp candidates for an upright object (its z along the world's) resting on a
-    surface. With ``scene`` and ``arm``, only those the arm reaches collision-free are kept,
-    each with its IK solution."""
+    surface. With ``scene`` and ``arm``, only those the arm reaches collision-free, at the
+    grasp and at the start of the approach's minimum distance, are kept, each with its IK
+    solution."""
     if yaw_step_deg <= 0:
         raise GraspError(f"yaw_step_deg must be > 0, got {yaw_step_deg}")
     T = T_world_object.matrix()
@@ -178,9 +179,10 @@ def generate_grasps(
 def _reachable(
     grasps: list[Grasp], scene: PlanningScene, arm: str, gripper: GripperGeometry, object_id: str
 ) -> list[Grasp]:
-    """The grasps whose pose the arm reaches without collision (the object may touch the
-    gripper's links), each with its IK solution nearest the current state. Every IK solution
-    of every grasp is collision-checked in one batch."""
+    """The grasps whose pose, and pre-grasp pose at the approach's minimum distance, the arm
+    reaches without collision (the object may touch the gripper's links), each with its IK
+    solution nearest the current state. Every IK solution of every grasp is collision-checked
+    in one batch; the pre-grasps of those that pass in another."""
     group = scene.robot.group(arm)
     links = scene.robot.group(gripper.group).link_names
     work = scene.copy()
@@ -191,10 +193,17 @@ def _reachable(
     seed = work.state.group_positions(group)
     targets = [T_base_world @ g.pose.matrix() for g in grasps]
     found = _free_ik(work, group, gripper.eef_link, targets, seed)
+    ok = [(g, q) for g, q in zip(grasps, found, strict=True) if q is not None]
+    pre = []
+    for g, _ in ok:
+        T = g.pose.matrix().copy()
+        T[:3, 3] -= g.pre_grasp_approach.vector(g.pre_grasp_approach.min_distance)
+        pre.append(T_base_world @ T)
+    found_pre = _free_ik(work, group, gripper.eef_link, pre, seed)
     return [
         Grasp(**{**g.__dict__, "joint_positions": q})  # type: ignore[arg-type]
-        for g, q in zip(grasps, found, strict=True)
-        if q is not None
+        for (g, q), p in zip(ok, found_pre, strict=True)
+        if p is not None
     ]
 
 
@@ -273,16 +282,26 @@ def reachable_places(
     kept. Every IK solution of every place is collision-checked in one batch."""
     group = scene.robot.group(arm)
     T_base_world = np.linalg.inv(scene.link_pose(group.base_link).matrix())
-    targets = []
+    at, pre = [], []
     for loc in places:
-        pre = loc.pose.matrix().copy()
-        pre[:3, 3] -= loc.pre_place_approach.vector(loc.pre_place_approach.min_distance)
-        targets += [T_base_world @ loc.pose.matrix(), T_base_world @ pre]
-    found = _free_ik(scene, group, eef_link, targets)
+        T = loc.pose.matrix().copy()
+        at.append(T_base_world @ T)
+        T[:3, 3] -= loc.pre_place_approach.vector(loc.pre_place_approach.min_distance)
+        pre.append(T_base_world @ T)
+    found_pre = _free_ik(scene, group, eef_link, pre)
+    # at the place the held object comes right down onto the surface: no padding there (the
+    # approach is made without it), only on the way to the pre-place
+    work = scene
+    held = [a for a in scene.attached_objects if scene.object_padding(a) > 0]
+    if held:
+        work = scene.copy()
+        for a in held:
+            work.set_object_padding(a, 0.0)
+    found = _free_ik(work, group, eef_link, at)
     return [
         loc
-        for i, loc in enumerate(places)
-        if found[2 * i] is not None and found[2 * i + 1] is not None
+        for loc, a, b in zip(places, found, found_pre, strict=True)
+        if a is not None and b is not None
     ]
 
 
@@ -377,7 +396,7 @@ def generate_pushes(
     # first pushed obliquely, toward the pushed end's side (inside the contact's friction
     # cone): the push turns the box more and drives it less away from the base (measured:
     # 14–18° for 11–13 mm, against 14–29° for 23–32 mm straight); then straight
-    out = []
+    out: list[Push] = []
     for d in sorted(distances, reverse=True):
         for side in sideways_deg:
             a = math.radians(side)

@@ -229,9 +229,9 @@ class Manipulator:
                 dist = self._move_to_pre(g.pose, g.pre_grasp_approach)
                 result.stages.append(StageResult(g.id, "move", True))
                 scene.allow_collision(name, self.finger_links)
-                self._line(
-                    "approach", g.pre_grasp_approach.vector(dist), g.pre_grasp_approach.min_distance
-                )
+                # the approach ends at the grasp pose (its length is what may be shortened, as
+                # MoveIt's, never its end): fingers closed short of it pinch with their tips
+                self._line("approach", g.pre_grasp_approach.vector(dist), dist - 0.001)
                 result.stages.append(StageResult(g.id, "approach", True))
                 self._gripper(g.grasp_posture)
                 if cell.world is not None and not cell.is_grasped(name):
@@ -408,6 +408,8 @@ class Manipulator:
                 padding = scene.object_padding(name)
                 scene.set_object_padding(name, 0.0)
                 try:
+                    # a place may stop short (at least the minimum distance down): the object
+                    # is then let go a little higher, and the settle check sees where it lands
                     self._line(
                         "approach",
                         loc.pre_place_approach.vector(dist),
