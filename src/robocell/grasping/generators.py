@@ -12,6 +12,7 @@ touch the fingers).
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import replace
 
@@ -31,6 +32,8 @@ from robocell.grasping.grasp import (
 from robocell.kinematics.ik import NumericIK, ik_solver, solve_ik
 from robocell.robot.model import JointGroup
 from robocell.scene.planning_scene import PlanningScene
+
+BOX_FACE_MIN = math.cos(math.radians(2 * 10))  # side pinches of a box: within 10° of its faces
 
 
 def _frame(
@@ -141,17 +144,21 @@ def generate_grasps(
         closing = closing - (closing @ z_w) * z_w
         closing /= np.linalg.norm(closing)
         face = abs(math.cos(2 * yaw)) if isinstance(shape, Box) else 1.0  # across faces
-        if top_ok:
+        if top_ok and face >= (BOX_FACE_MIN if isinstance(shape, Box) else 0.0):
             add("top", -z_w, closing, np.array([c_o[0], c_o[1], z_tcp]), 0.7 + 0.3 * face)
-    # from the side: horizontal closing, approach tilted down by each tilt
-    for phi in np.radians(np.arange(0.0, 360.0, yaw_step_deg)):
+    # from the side: horizontal closing, approach tilted down by each tilt; around a box from
+    # its faces' directions (its yaw), so that the pads can lie flat on two faces
+    yaw_o = math.atan2(x_o[1], x_o[0]) if isinstance(shape, Box) else 0.0
+    for phi in yaw_o + np.radians(np.arange(0.0, 360.0, yaw_step_deg)):
         horiz = np.array([math.cos(phi), math.sin(phi), 0.0])
         closing = np.cross(z_w, horiz)
+        face = 1.0
+        if isinstance(shape, Box):
+            face = abs(math.cos(2 * math.atan2(closing @ y_o, closing @ x_o)))
+            if face < BOX_FACE_MIN:
+                continue  # pads on two edges: the squeeze spins the box out (measured)
         for tilt in np.radians(tilts_deg):
             approach = math.cos(tilt) * horiz - math.sin(tilt) * z_w
-            face = 1.0
-            if isinstance(shape, Box):
-                face = abs(math.cos(2 * math.atan2(closing @ y_o, closing @ x_o)))
             # tcp at the centre, raised until the gripper clears the support (as long as it
             # stays below the top, where the fingers would grip nothing)
             below = gripper.lowest(_frame(approach, closing, gripper))
@@ -372,9 +379,15 @@ def generate_pushes(
     P = gripper.closed_points if len(gripper.closed_points) else gripper.points
     z_w = np.array([0.0, 0.0, 1.0])
     starts: list[tuple[Pose, NDArray[np.float64], float]] = []
-    for tilt in np.radians(tilts_deg):
-        approach = -math.cos(tilt) * z_w + math.sin(tilt) * push_dir  # leaning toward the base
-        R = _frame(approach, u, gripper)
+    # the gripper leans toward the base: across the face, or along the line from the base
+    # (which brings the wrist nearer the base when the face is oblique to that line)
+    away = -to_base
+    leans = [(push_dir, u)]
+    if abs(away @ push_dir) < math.cos(math.radians(5)):
+        leans.append((away, np.cross(z_w, away)))
+    for (lean, closing), tilt in itertools.product(leans, np.radians(tilts_deg)):
+        approach = -math.cos(tilt) * z_w + math.sin(tilt) * lean
+        R = _frame(approach, closing, gripper)
         W = P @ R.T  # the gripper's points relative to its tcp, world axes
         lead = W @ push_dir
         front = W[lead >= lead.max() - 0.005]  # what meets the face first

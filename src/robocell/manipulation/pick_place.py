@@ -299,10 +299,16 @@ class Manipulator:
                     result.stages.append(StageResult(p.id, "move", True))
                     self._line("descend", np.array([0.0, 0.0, -p.descent]), p.descent)
                     result.stages.append(StageResult(p.id, "descend", True))
-                    scene.allow_collision(name, self.finger_links)
+                    # once touched, the object moves ahead of the hand: where it was is no
+                    # obstacle to the hand that follows (the push's start was checked clear)
+                    scene.allow_collision(name, self.hand_links)
                     self._line("push", p.push.vector(), p.push.min_distance)
                     result.stages.append(StageResult(p.id, "push", True))
                     cell.sync_scene()
+                    tilt = float(np.degrees(np.arccos(np.clip(
+                        cell.object_pose(name).rotation()[2, 2], -1.0, 1.0))))  # fmt: skip
+                    if before.rotation()[2, 2] > 0.99 and tilt > 10.0:
+                        raise _Failed("push", f"the object tipped over ({tilt:.0f}°)")
                     self._retreat(np.array([0.0, 0.0, p.descent]), 0.5 * p.descent, name)
                     result.stages.append(StageResult(p.id, "retreat", True))
                     result.success, result.candidate = True, p.id
@@ -318,7 +324,7 @@ class Manipulator:
                 except RobocellError as exc:
                     result.stages.append(StageResult(p.id, "plan", False, str(exc)))
                 finally:
-                    scene.allow_collision(name, self.finger_links, False)
+                    scene.allow_collision(name, self.hand_links, False)
         finally:
             scene.set_object_padding(name, padding)
             cell.sync_scene()
