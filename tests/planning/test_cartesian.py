@@ -96,3 +96,29 @@ def test_bad_arguments(scene):
         compute_cartesian_path(scene, "arm", [])
     with pytest.raises(PlanningError, match="waypoint 0"):
         compute_cartesian_path(scene, "arm", ["up"])
+
+
+def test_a_step_whose_joints_move_fast_is_split_not_called_a_jump(scene):
+    """With long steps and a small joint step allowed, each step is followed in finer steps:
+    the path is complete, continuous within the allowed joint step, and still straight."""
+    arm = scene.robot.group("arm")
+    T0 = scene.link_pose("tcp")
+    target = relative_pose(T0, (0.0, 0.12, 0.0))
+    coarse = compute_cartesian_path(scene, "arm", [target], eef_step=0.04, link="tcp")
+    assert coarse.fraction == 1.0
+    step = float(np.abs(np.diff(coarse.path, axis=0)).max())
+    cp = compute_cartesian_path(
+        scene, "arm", [target], eef_step=0.04, link="tcp", max_joint_step=0.6 * step
+    )
+    assert cp.fraction == 1.0 and cp.reason == ""
+    assert len(cp.path) > len(coarse.path)
+    assert float(np.abs(np.diff(cp.path, axis=0)).max()) <= 0.6 * step + 1e-12
+    pts = np.array([fk(arm, q, "tcp")[:3, 3] for q in cp.path])
+    d = (target.position - T0.position) / np.linalg.norm(target.position - T0.position)
+    rel = pts - T0.position
+    assert np.linalg.norm(rel - (rel @ d)[:, None] * d, axis=1).max() < 1e-5
+    # a limit no split can meet is still a jump
+    cp = compute_cartesian_path(
+        scene, "arm", [target], eef_step=0.04, link="tcp", max_joint_step=step / 100
+    )
+    assert cp.fraction < 1.0 and "joint jump" in cp.reason

@@ -128,52 +128,80 @@ def compute_cartesian_path(
     )
     progress = arc / arc[-1] if arc[-1] > 1e-9 else ang / max(ang[-1], 1e-12)
 
-    qs = np.empty((n + 1, g.dof))
-    qs[0] = q0
     tracker = _Tracker(g, tip, full)
     reason = ""
-    reached = 0
+    # a step whose joints move more than max_joint_step is split in SPLIT finer steps first:
+    # near a wrist singularity the wrist turns fast but continuously, which finer steps follow;
+    # a real jump (another IK branch) stays one
+    out_q, out_P, out_prog = [q0], [P[0]], [0.0]
+    reached = 0  # the last whole step reached
     for k in range(1, n + 1):
-        q, ok = tracker.solve(P[k], qs[k - 1])
+        q_prev = out_q[-1]
+        q, ok = tracker.solve(P[k], q_prev)
+        sub = [(P[k], float(progress[k]), q)]
+        if ok and float(np.max(np.abs(q - q_prev))) > max_joint_step:
+            fine = _poses_between(P[k - 1], P[k], eef_step / SPLIT, rotation_step / SPLIT)
+            s = np.arange(1, len(fine) + 1) / len(fine)
+            sub, q_at = [], q_prev
+            for T_s, s_i in zip(fine, s, strict=True):
+                q_at, ok = tracker.solve(T_s, q_at)
+                if not ok:
+                    break
+                p_s = float(progress[k - 1] + s_i * (progress[k] - progress[k - 1]))
+                sub.append((T_s, p_s, q_at))
         if not ok:
             reason = f"no IK solution for the step at {P[k][:3, 3].round(4).tolist()} (base frame)"
             break
-        bad = g.limit_violations(q)
-        if bad:
-            reason = f"joint limit reached: {bad[0]}"
+        failed = False
+        parts = len(out_q)
+        for T_s, p_s, q_s in sub:
+            bad = g.limit_violations(q_s)
+            if bad:
+                reason = f"joint limit reached: {bad[0]}"
+                failed = True
+                break
+            step = np.abs(q_s - out_q[-1])
+            if float(step.max()) > max_joint_step:
+                j = int(step.argmax())
+                reason = f"joint jump: {g.joint_names[j]} moves {step[j]:.3f} rad in one step"
+                failed = True
+                break
+            out_q.append(q_s)
+            out_P.append(T_s)
+            out_prog.append(p_s)
+        if failed:
+            # a split step counts once all of its parts are in
+            del out_q[parts:], out_P[parts:], out_prog[parts:]
             break
-        step = np.abs(q - qs[k - 1])
-        if float(step.max()) > max_joint_step:
-            j = int(step.argmax())
-            reason = f"joint jump: {g.joint_names[j]} moves {step[j]:.3f} rad in one step"
-            break
-        qs[k] = q
         reached = k
-    qs = qs[: reached + 1]
+    qs = np.array(out_q)
+    P_out = np.array(out_P)
+    prog_out = np.array(out_prog)
+    last = len(qs) - 1  # the last state kept
     if jump_threshold > 0 and len(qs) > 2:
         d = np.linalg.norm(np.diff(qs, axis=0), axis=1)
         limit = jump_threshold * d.mean()
         over = np.flatnonzero(d > limit)
         if len(over):
-            reached = int(over[0])
-            qs = qs[: reached + 1]
-            reason = (
-                f"joint jump: step {reached + 1} is longer than {jump_threshold} × the mean step"
-            )
-    if avoid_collisions and len(qs) > 1:
+            last = int(over[0])
+            reason = f"joint jump: step {last + 1} is longer than {jump_threshold} × the mean step"
+    if avoid_collisions and last > 0:
         checker = scene.checker(g)
         # every step, and between steps at 0.01 rad, so that no collision hides between them
-        dense, owner = _densify(qs, 0.01)
+        dense, owner = _densify(qs[: last + 1], 0.01)
         hit = checker.check(dense)
         if hit.any():
             first = int(np.argmax(hit))
-            reached = max(0, int(owner[first]) - 1)
+            last = max(0, int(owner[first]) - 1)
             pairs = checker.colliding_pairs(dense[first])
             what = ", ".join(f"{a} – {b}" for a, b in pairs) or "(unknown pair)"
-            reason = f"collision at step {reached + 1}: {what}"
-            qs = qs[: reached + 1]
-    fraction = float(progress[reached]) if reached < n else 1.0
-    return CartesianPath(qs, fraction, "" if fraction >= 1.0 else reason, P[: reached + 1])
+            reason = f"collision at step {last + 1}: {what}"
+    whole = reached == n and last == len(qs) - 1
+    fraction = 1.0 if whole else float(prog_out[last])
+    return CartesianPath(qs[: last + 1], fraction, "" if whole else reason, P_out[: last + 1])
+
+
+SPLIT = 8  # how finely a step whose joints jump is split before it is called a jump
 
 
 def _densify(
