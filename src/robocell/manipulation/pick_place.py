@@ -305,12 +305,21 @@ class Manipulator:
                     self._line("push", p.push.vector(), p.push.min_distance)
                     result.stages.append(StageResult(p.id, "push", True))
                     cell.sync_scene()
-                    tilt = float(np.degrees(np.arccos(np.clip(
-                        cell.object_pose(name).rotation()[2, 2], -1.0, 1.0))))  # fmt: skip
-                    if before.rotation()[2, 2] > 0.99 and tilt > 10.0:
-                        raise _Failed("push", f"the object tipped over ({tilt:.0f}°)")
                     self._retreat(np.array([0.0, 0.0, p.descent]), 0.5 * p.descent, name)
                     result.stages.append(StageResult(p.id, "retreat", True))
+                    # at rest, away from the fingers: did it stay upright?
+                    cell.world.step(100)
+                    cell.sync_scene()
+                    tilt = float(np.degrees(np.arccos(np.clip(
+                        cell.object_pose(name).rotation()[2, 2], -1.0, 1.0))))  # fmt: skip
+                    if before.rotation()[2, 2] > 0.99 and tilt > 20.0:
+                        result.stages.append(
+                            StageResult(
+                                p.id, "settle", False, f"the object tipped over ({tilt:.0f}°)"
+                            )
+                        )
+                        result.reason = f"the push tipped {name!r} over ({tilt:.0f}°)"
+                        break
                     result.success, result.candidate = True, p.id
                     break
                 except _Stopped as f:
