@@ -21,6 +21,7 @@ from robocell.cell.move_group import MoveGroup
 from robocell.errors import GraspError, RobocellError
 from robocell.geometry.pose import Pose
 from robocell.grasping.grasp import Grasp, GripperTranslation, PlaceLocation, Push
+from robocell.kinematics.ik import solve_ik
 from robocell.trajectory.timing import ptp
 
 
@@ -136,9 +137,22 @@ class Manipulator:
         else:
             self.cell.scene.state.set_group_positions(g, [command])
 
-    def _move_to(self, pose: Pose) -> None:
+    def _move_to(self, pose: Pose, near: np.ndarray | None = None) -> None:
+        """Plan and move the end-effector link to ``pose``; with ``near`` (arm joints), to the
+        pose's IK solution nearest it (the branch a straight move from there should follow:
+        a far-off branch can run a wrist joint into its limit on the way)."""
         self._check_stop()
-        self.arm.set_pose_target(pose)
+        target = None
+        if near is not None:
+            arm = self.arm.group
+            T = self.cell.scene.link_pose(arm.base_link).inverse() * pose
+            ik = solve_ik(arm, T, seed=near, tip_link=self.geometry.eef_link, collision_free=False)
+            if len(ik.solutions):
+                target = ik.solutions[0]
+        if target is not None:
+            self.arm.set_joint_value_target(target)
+        else:
+            self.arm.set_pose_target(pose)
         t = time.perf_counter()
         plan = self.arm.plan(fix_start=True)  # fingers may rest against what they let go
         self._plan_s += time.perf_counter() - t
@@ -295,7 +309,7 @@ class Manipulator:
                     above = Pose(
                         p.pose.position + np.array([0.0, 0.0, p.descent]), p.pose.orientation
                     )
-                    self._move_to(above)
+                    self._move_to(above, near=p.joint_positions)
                     result.stages.append(StageResult(p.id, "move", True))
                     self._line("descend", np.array([0.0, 0.0, -p.descent]), p.descent)
                     result.stages.append(StageResult(p.id, "descend", True))
