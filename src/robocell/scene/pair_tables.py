@@ -228,7 +228,7 @@ def _build(
             packed.inner,
             node_rate,
             inner_rate,
-            *packed.fields,
+            packed.fields,
             T,
         )
         scale = n_final // n
@@ -272,21 +272,13 @@ def _cell_verdicts(  # type: ignore[no-untyped-def]
     inner,
     node_rate,
     inner_rate,
-    field_kind,
-    grid_origin,
-    grid_box,
-    grid_h,
-    grid_dims,
-    grid_off,
-    grid_values,
-    prim_start,
-    prim_kind,
-    prim_T,
-    prim_dims,
+    fields,
     T,
 ):
     """TABLE_FREE/HIT/CHECK for cells of half-width ``half`` [rad] around ``centres``
-    (C, dims): body d (lower link) against body f (upper link)'s distance field."""
+    (C, dims): body d (lower link) against body f (upper link)'s distance field; ``fields``
+    as :func:`robocell.scene.checker._pack_fields` makes them."""
+    fk, go, gb, gh, gd, gf, gv, ps, pk, pt, pd = fields  # as K._field_bound takes them
     C = centres.shape[0]
     out = np.empty(C, np.uint8)
     q = q_base.copy()
@@ -334,23 +326,7 @@ def _cell_verdicts(  # type: ignore[no-untyped-def]
             x = R[0, 0] * nodes[n, 0] + R[0, 1] * nodes[n, 1] + R[0, 2] * nodes[n, 2] + tv[0]
             y = R[1, 0] * nodes[n, 0] + R[1, 1] * nodes[n, 1] + R[1, 2] * nodes[n, 2] + tv[1]
             z = R[2, 0] * nodes[n, 0] + R[2, 1] * nodes[n, 1] + R[2, 2] * nodes[n, 2] + tv[2]
-            b = K._field_bound(
-                x,
-                y,
-                z,
-                f,
-                field_kind,
-                grid_origin,
-                grid_box,
-                grid_h,
-                grid_dims,
-                grid_off,
-                grid_values,
-                prim_start,
-                prim_kind,
-                prim_T,
-                prim_dims,
-            )
+            b = K._field_bound(x, y, z, f, fk, go, gb, gh, gd, gf, gv, ps, pk, pt, pd)
             if b > nodes[n, 3] + node_rate[n] * half + SLACK:
                 continue
             if left[n] < 0:
