@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
@@ -335,21 +335,28 @@ def _robot_pack(robot: RobotModel, names: tuple[str, ...]) -> Packed:
     )
 
 
-_TABLES: weakref.WeakKeyDictionary[RobotModel, dict[tuple[Any, ...], PairTable]] = (
-    weakref.WeakKeyDictionary()
-)
+@dataclass
+class _RobotTables:
+    """A robot's pair tables, kept per robot (the disk cache is keyed by a hash of the links'
+    meshes, which costs more than building a checker): the chains of its link pairs, the
+    tables by key, and the kernel's packed arrays per list of tables, the last few kept
+    (joints outside the group, a gripper's, can take many values over a run)."""
+
+    chains: dict[tuple[Any, ...], Chain | None] = field(default_factory=dict)
+    tables: dict[tuple[Any, ...], PairTable] = field(default_factory=dict)
+    packed: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = field(default_factory=dict)
+
+    KEEP = 16
+
+    def keep(self, key: tuple[Any, ...], arrays: tuple[NDArray[Any], ...]) -> None:
+        self.packed[key] = arrays
+        while len(self.packed) > self.KEEP:
+            self.packed.pop(next(iter(self.packed)))
+        while len(self.tables) > 4 * self.KEEP:
+            self.tables.pop(next(iter(self.tables)))
 
 
-def _robot_table(
-    robot: RobotModel, chain: Chain, base: NDArray[np.float64], f: int, d: int, packed: Packed
-) -> PairTable:
-    """A robot's pair table, kept per robot (the disk cache is keyed by a hash of the links'
-    meshes, which costs more than building a checker)."""
-    key = (chain.upper, chain.lower, chain.variables, tuple(base[list(chain.fixed)]))
-    have = _TABLES.setdefault(robot, {})
-    if key not in have:
-        have[key] = pair_table(robot, chain, base, f, d, packed)
-    return have[key]
+_TABLES: weakref.WeakKeyDictionary[RobotModel, _RobotTables] = weakref.WeakKeyDictionary()
 
 
 _EPOCH = [0]
@@ -556,24 +563,42 @@ class CollisionChecker:
         """The kernel's pair tables (see :mod:`robocell.scene.pair_tables`): pair_table (a
         table per self pair, or −1), table_vars, table_n, table_off, table_values."""
         robot = self.robot
-        if packed is None:
-            packed = _robot_pack(robot, tuple(b.name for b in self.bodies[:n_robot]))
-        moving = {int(i) for i in self.group.indices}
-        index = np.full(len(self.self_pairs), -1, np.int64)
-        tables: list[PairTable] = []
+        cache = _TABLES.setdefault(robot, _RobotTables())
+        moving = frozenset(int(i) for i in self.group.indices)
+        base = self.base_positions
+        # which pairs have a table, and each table's key: the packed arrays are kept per
+        # such list (a checker is built per scene change; concatenating MBs of tables each
+        # time cost 40 % of building one, measured)
+        wanted: list[tuple[int, Chain, int, int, tuple[Any, ...]]] = []
         for k, (i, j) in enumerate(self.self_pairs):
             if i >= n_robot or j >= n_robot:
                 continue
-            chain = table_chain(robot, self.bodies[i].name, self.bodies[j].name, moving)
+            a, b = self.bodies[i].name, self.bodies[j].name
+            ck = (a, b, moving)
+            if ck not in cache.chains:
+                cache.chains[ck] = table_chain(robot, a, b, set(moving))
+            chain = cache.chains[ck]
             if chain is None:
                 continue
-            f, d = (i, j) if robot.link_index(self.bodies[i].name) == chain.upper else (j, i)
+            f, d = (i, j) if robot.link_index(a) == chain.upper else (j, i)
             if self.bodies[f].field_kind == K.FIELD_NONE:
                 continue
+            key = (chain.upper, chain.lower, chain.variables, tuple(base[list(chain.fixed)]))
+            wanted.append((k, chain, f, d, key))
+        out_key = (len(self.self_pairs), tuple((k, key) for k, _, _, _, key in wanted))
+        if out_key in cache.packed:
+            return cache.packed[out_key]
+        if packed is None:
+            packed = _robot_pack(robot, tuple(b.name for b in self.bodies[:n_robot]))
+        index = np.full(len(self.self_pairs), -1, np.int64)
+        tables: list[PairTable] = []
+        for k, chain, f, d, key in wanted:
+            if key not in cache.tables:
+                cache.tables[key] = pair_table(robot, chain, base, f, d, packed)
             index[k] = len(tables)
-            tables.append(_robot_table(robot, chain, self.base_positions, f, d, packed))
+            tables.append(cache.tables[key])
         sizes = [len(t.values) for t in tables]
-        return (
+        out = (
             index,
             np.array(
                 [list(t.variables) + [-1] * (2 - len(t.variables)) for t in tables], np.int64
@@ -584,6 +609,8 @@ class CollisionChecker:
             else np.zeros(0, np.int64),
             np.concatenate([t.values for t in tables]) if tables else np.zeros(1, np.uint8),
         )
+        cache.keep(out_key, out)
+        return out
 
     def _warm_up(self) -> None:
         """Compile (or load from numba's cache) every kernel variant once per process, here
