@@ -279,3 +279,30 @@ def test_robot_mounted_off_the_world_origin(irb120):
     assert np.allclose(scene.link_pose("tcp").position, T_world_tcp_home[:3, 3])
     scene.move_object("blocker", Pose(T_root_tcp[:3, 3]))  # the same point in the root frame
     assert not scene.in_collision(q, arm)
+
+
+def test_rigid_clusters_are_decided_once_and_broad_phased(mbm_ur5):
+    """While the UR5 arm plans, its gripper's links keep their relative poses: their pairs are
+    decided once (static), and the arm links' pairs against the hand go through one union tree
+    first. Answers are those of the checker without that broad phase, and coal's."""
+    from robocell.scene import _kernels as K
+
+    group = mbm_ur5.group("manipulator")
+    scene = PlanningScene(mbm_ur5)
+    scene.add_box("table", Pose((0.5, 0.0, 0.1)), (0.5, 0.8, 0.2))
+    checker = scene.checker(group)
+    names = [b.name for b in checker.bodies]
+    static = {frozenset((names[i], names[j])) for i, j in checker.static_self_pairs}
+    assert frozenset(("fts_robotside", "robotiq_85_left_finger_link")) in static
+    hand = {"fts_robotside", "robotiq_85_base_link", "robotiq_85_left_finger_tip_link"}
+    assert not any({names[i], names[j]} <= hand for i, j in checker.self_pairs)
+    grouped = {names[g.body] for g in checker._groups}
+    assert {"forearm_link", "upper_arm_link"} <= grouped
+    qs = group.random(np.random.default_rng(3), 3000)
+    with_groups = checker.check(qs)
+    assert np.array_equal(with_groups, checker.check_exact(qs))
+    model = list(checker._model)
+    model[K.MODEL_FIELDS.index("group_start")] = np.full(len(checker.self_pairs), -1, np.int64)
+    checker._model = tuple(model)
+    assert np.array_equal(checker.check(qs), with_groups)
+    assert 0.1 < with_groups.mean() < 0.9

@@ -660,9 +660,12 @@ def _tree_near_field(
     seen,
     pairs,
     tag,
+    broad=False,
 ):  # type: ignore[no-untyped-def]
     """Body b against body f by descending b's tree against f's distance field (one tree, not
-    two): GJK_FREE, GJK_HIT or TOUCH (leaves may touch; not settled here). A triangle spans
+    two): GJK_FREE, GJK_HIT or TOUCH (leaves may touch; not settled here). ``broad``: a broad
+    phase only (b is a rigid cluster's union, see ``pair_groups``): TOUCH at the first leaf
+    the field does not clear. A triangle spans
     many leaves: ``seen[tri] == tag`` marks one of b's tested against f's primitives, and the
     hash set ``pairs`` the pairs of triangles tested, in this call.
 
@@ -684,7 +687,7 @@ def _tree_near_field(
             + TB[f, 2, i] * (TB[b, 2, 3] - TB[f, 2, 3])
         )
     exact_field = field_kind[f] == FIELD_PRIMITIVES
-    settle = body_mesh[b] and (exact_field or body_mesh[f])
+    settle = (not broad) and body_mesh[b] and (exact_field or body_mesh[f])
     tri_b = np.empty((3, 4))
     tri_f = np.empty((3, 4))
     tests = 0
@@ -723,7 +726,7 @@ def _tree_near_field(
             sp += 2
             continue
         if not settle:
-            if exact_field or _tree_touches_sphere(
+            if broad or exact_field or _tree_touches_sphere(
                 body_root[f], nodes, left, right, x, y, z, nodes[n, 3], stack2
             ):
                 return TOUCH
@@ -887,6 +890,9 @@ MODEL_FIELDS = (
     "table_n",
     "table_off",
     "table_values",
+    "group_start",
+    "group_bodies",
+    "group_count",
 )
 
 
@@ -965,6 +971,9 @@ def _classify_state(
         table_n,
         table_off,
         table_values,
+        group_start,
+        group_bodies,
+        group_count,
     ) = model
     n_world = world_pairs.shape[0]
     unsure = False
@@ -1047,7 +1056,59 @@ def _classify_state(
                 continue
         unsure = True
         flags[k] = True
+    skip_to = 0
     for k in range(self_pairs.shape[0]):
+        if k < skip_to:
+            continue
+        g = group_start[k]
+        if g >= 0:
+            # broad phase: the pairs k … k + count − 1 are one body against the members of a
+            # rigid cluster; the cluster's union tree clear of that body's field clears them all
+            x, u = group_bodies[g, 0], group_bodies[g, 1]
+            rx, ru = body_root[x], body_root[u]
+            _centre(rx, x, TB, nodes, W, stamp, cur)
+            _centre(ru, u, TB, nodes, W, stamp, cur)
+            dx = W[rx, 0] - W[ru, 0]
+            dy = W[rx, 1] - W[ru, 1]
+            dz = W[rx, 2] - W[ru, 2]
+            rr = nodes[rx, 3] + nodes[ru, 3]
+            if (
+                dx * dx + dy * dy + dz * dz > rr * rr
+                or _tree_near_field(
+                    x,
+                    u,
+                    TB,
+                    body_root,
+                    nodes,
+                    left,
+                    right,
+                    field_kind,
+                    grid_origin,
+                    grid_box,
+                    grid_h,
+                    grid_dims,
+                    grid_off,
+                    grid_values,
+                    prim_start,
+                    prim_kind,
+                    prim_T,
+                    prim_dims,
+                    body_mesh,
+                    node_tri_start,
+                    node_tri_ids,
+                    tri_V,
+                    tri_sphere,
+                    stack,
+                    stack3,
+                    seen,
+                    pairs,
+                    0,
+                    True,
+                )
+                == GJK_FREE
+            ):
+                skip_to = k + group_count[g]
+                continue
         ti = pair_table[k]
         if ti >= 0:
             v = _table_value(q, ti, table_vars, table_n, table_off, table_values)

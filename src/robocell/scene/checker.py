@@ -25,14 +25,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robocell.errors import SceneError
+from robocell.geometry.pose import invert_transform
 from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere, padded
 from robocell.kinematics._kernels import fk_into
-from robocell.kinematics.fk import tree_args
+from robocell.kinematics.fk import link_poses, tree_args
 from robocell.robot.model import JointGroup, RobotModel
 from robocell.scene import _kernels as K
 from robocell.scene.objects import AttachedObject
 from robocell.scene.pair_tables import Chain, PairTable, pair_table, table_chain
-from robocell.scene.spheres import DistanceGrid, SphereTree, body_grid, body_tree
+from robocell.scene.spheres import DistanceGrid, SphereTree, body_grid, body_tree, build_tree
 
 if TYPE_CHECKING:
     from robocell.scene.planning_scene import PlanningScene
@@ -336,6 +337,39 @@ def _robot_pack(robot: RobotModel, names: tuple[str, ...]) -> Packed:
 
 
 @dataclass
+class _PairGroup:
+    """Self pairs (indices into the checker's ``self_pairs``, consecutive once packed) of one
+    body against members of a rigid cluster, whose union body is ``union``."""
+
+    body: int
+    union: int
+    pairs: list[int]
+
+
+def _motion_signatures(
+    robot: RobotModel, links: list[str], group: JointGroup
+) -> list[frozenset[int]]:
+    """For each link, the joints on its path from the root whose variable the group moves:
+    two links with the same set keep their relative pose whatever the group does."""
+    t = robot.tree
+    moving = {int(i) for i in group.indices}
+    parent_joint = {int(c): j for j, c in enumerate(t.child_link)}
+    memo: dict[str, frozenset[int]] = {}
+    for name in links:
+        if name in memo:
+            continue
+        k = robot.link_index(name)
+        js = []
+        while k in parent_joint:
+            j = parent_joint[k]
+            if t.var[j] >= 0 and int(t.var[j]) in moving:
+                js.append(j)
+            k = int(t.parent_link[j])
+        memo[name] = frozenset(js)
+    return [memo[n] for n in links]
+
+
+@dataclass
 class _RobotTables:
     """A robot's pair tables, kept per robot (the disk cache is keyed by a hash of the links'
     meshes, which costs more than building a checker): the chains of its link pairs, the
@@ -345,8 +379,14 @@ class _RobotTables:
     chains: dict[tuple[Any, ...], Chain | None] = field(default_factory=dict)
     tables: dict[tuple[Any, ...], PairTable] = field(default_factory=dict)
     packed: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = field(default_factory=dict)
+    unions: dict[tuple[Any, ...], SphereTree] = field(default_factory=dict)
 
     KEEP = 16
+
+    def keep_union(self, key: tuple[Any, ...], tree: SphereTree) -> None:
+        self.unions[key] = tree
+        while len(self.unions) > self.KEEP:
+            self.unions.pop(next(iter(self.unions)))
 
     def keep(self, key: tuple[Any, ...], arrays: tuple[NDArray[Any], ...]) -> None:
         self.packed[key] = arrays
@@ -464,6 +504,7 @@ class CollisionChecker:
         self.self_pairs: list[tuple[int, int]] = []
         self.static_self_pairs: list[tuple[int, int]] = []
         att_by_id = {a.id: a for a in self._attached}
+        motion = _motion_signatures(robot, [b.link for b in bodies], group)
         for i in range(len(bodies)):
             for j in range(i + 1, len(bodies)):
                 a, b = bodies[i], bodies[j]
@@ -471,10 +512,13 @@ class CollisionChecker:
                     continue
                 if self._touching_allowed(a, b, att_by_id):
                     continue
-                if a.moving or b.moving:
+                # two bodies the same group joints move are rigid to each other (a gripper's
+                # links while the arm plans): their pair is decided once, like a fixed one's
+                if motion[i] != motion[j]:
                     self.self_pairs.append((i, j))
                 else:
                     self.static_self_pairs.append((i, j))
+        self._groups = self._pair_groups(motion, len(robot_spheres(robot)))
         self._pack()
         self._warm_up()
         self._exact = None
@@ -493,6 +537,85 @@ class CollisionChecker:
             ):
                 return True
         return False
+
+    def _pair_groups(self, motion: list[frozenset[int]], n_robot: int) -> list[_PairGroup]:
+        """The broad phase over rigid clusters: the robot's moving links that the same group
+        joints move (a UR5's wrist 3 and its gripper's ten links) form a cluster; a body with
+        self pairs against two or more of its members gets one test of the cluster's union
+        tree against its distance field before those pairs. ``self_pairs`` is reordered so
+        that each group's pairs are consecutive (a group's first pair keeps its place)."""
+        self._unions: list[tuple[int, ...]] = []
+        clusters: dict[frozenset[int], list[int]] = {}
+        for i in range(n_robot):
+            if motion[i]:
+                clusters.setdefault(motion[i], []).append(i)
+        groups: list[_PairGroup] = []
+        member_of = {i: c for c, ms in enumerate(clusters.values()) for i in ms if len(ms) > 1}
+        by_key: dict[tuple[int, int], list[tuple[int, int]]] = {}
+        for k, (i, j) in enumerate(self.self_pairs):
+            for x, m in ((i, j), (j, i)):
+                if m in member_of and member_of.get(x) != member_of[m]:
+                    by_key.setdefault((x, member_of[m]), []).append((k, m))
+                    break
+        taken: set[int] = set()
+        unions: dict[tuple[int, ...], int] = {}
+        for (x, _), km in by_key.items():
+            km = [(k, m) for k, m in km if k not in taken]
+            if len(km) < 2 or self.bodies[x].field_kind == K.FIELD_NONE:
+                continue
+            taken.update(k for k, _ in km)
+            # the union of just the members x has pairs with (the ACM may allow some)
+            members = tuple(sorted({m for _, m in km}))
+            u = unions.setdefault(members, len(unions))
+            groups.append(_PairGroup(x, u, [k for k, _ in km]))
+        self._unions = list(unions)
+        if not groups:
+            return []
+        order: list[int] = []
+        start = []
+        by_first = {g.pairs[0]: g for g in groups}
+        for k in range(len(self.self_pairs)):
+            if k in by_first:
+                start.append(len(order))
+                order += by_first[k].pairs
+            elif k not in taken:
+                order.append(k)
+        self.self_pairs = [self.self_pairs[k] for k in order]
+        out = []
+        for g, s0 in zip((by_first[k] for k in sorted(by_first)), start, strict=True):
+            out.append(_PairGroup(g.body, g.union, list(range(s0, s0 + len(g.pairs)))))
+        return out
+
+    def _union_bodies(self) -> list[Body]:
+        """One body per member set of :meth:`_pair_groups`: the members' sphere-tree leaves in
+        the frame of the first member's link, under one tree (cached per robot by the members'
+        relative poses, which the joints outside the group set)."""
+        if not self._groups:
+            return []
+        robot = self.robot
+        cache = _TABLES.setdefault(robot, _RobotTables())
+        T_link = link_poses(robot, self.base_positions)
+        out = []
+        for members in self._unions:
+            rep = self.bodies[members[0]].link
+            T_rep_world = invert_transform(T_link[robot.link_index(rep)])
+            parts = []
+            for m in members:
+                b = self.bodies[m]
+                T = T_rep_world @ T_link[robot.link_index(b.link)] @ b.T_link_body
+                parts.append((b.name, np.round(T, 12)))
+            key = ("union", tuple((n, T.tobytes()) for n, T in parts))
+            if key not in cache.unions:
+                leaves = []
+                for (_, T), m in zip(parts, members, strict=True):
+                    L = self.bodies[m].spheres.leaves
+                    leaves.append(np.c_[L[:, :3] @ T[:3, :3].T + T[:3, 3], L[:, 3]])
+                nodes, left, right, _ = build_tree(np.vstack(leaves))
+                no_tris = np.zeros(len(nodes) + 1, np.int64)
+                tree = SphereTree(nodes, left, right, np.zeros((0, 4)), tri_start=no_tris)
+                cache.keep_union(key, tree)
+            out.append(Body(f"<cluster of {rep}>", rep, np.eye(4), cache.unions[key], True, []))
+        return out
 
     # ------------------------------------------------------------------ packing for the kernel
     def _pack(self) -> None:
@@ -520,9 +643,24 @@ class CollisionChecker:
             [field_side(bodies[i], bodies[j]) for i, j in self.self_pairs], dtype=np.int64
         )
         self._tables = self._pair_tables(packed if len(bodies) == n_robot else None, n_robot)
+        # the clusters' union bodies come after every real body (no pair names them)
+        unions = self._union_bodies()
+        body_link, body_T = link_idx, self._body_T
+        if unions:
+            packed = _merge(packed, pack_bodies(unions))
+            body_link = np.concatenate([link_idx, [robot.link_index(u.link) for u in unions]])
+            body_T = np.concatenate([body_T, np.tile(np.eye(4), (len(unions), 1, 1))])
+        n_groups = len(self._groups)
+        group_start = np.full(len(self.self_pairs), -1, np.int64)
+        group_bodies = np.zeros((n_groups, 2), np.int64)
+        group_count = np.zeros(n_groups, np.int64)
+        for gi, g in enumerate(self._groups):
+            group_start[g.pairs[0]] = gi
+            group_bodies[gi] = (g.body, len(bodies) + g.union)
+            group_count[gi] = len(g.pairs)
         args = tree_args(robot)
         self._args = args
-        moving_links = sorted({int(x) for x in link_idx})
+        moving_links = sorted({int(x) for x in body_link})
         self._joints = args.joints_to(*moving_links)
         self._group_idx = group.indices.astype(np.int64)
         self._scratch = _scratch(
@@ -537,8 +675,8 @@ class CollisionChecker:
             self._joints,
             args.root,
             *args.arrays,
-            self._body_link,
-            self._body_T,
+            body_link,
+            body_T,
             packed.body_root,
             packed.nodes,
             packed.left,
@@ -556,6 +694,9 @@ class CollisionChecker:
             *packed.fields,
             *packed.triangles,
             *self._tables,
+            group_start,
+            group_bodies,
+            group_count,
         )
         assert len(self._model) == len(K.MODEL_FIELDS)
 
