@@ -57,6 +57,21 @@ def test_joint_goal_around_a_wall(walled):
     assert len(plan.path) >= 3
 
 
+def test_unshortened_paths_are_valid_too(mbm_ur5):
+    """Without shortcutting, the search's own path is validated and timed. A connect step can
+    repeat a node: the zero-length segment crashed the corner rounding (MBM table_pick 9)."""
+    from robocell.planning.planner import PlannerConfig
+
+    folder = mbm_dir() / "ur5" / "problems" / "table_pick_ur5"
+    scene = load_scene(mbm_ur5, folder / "scene0009.yaml")
+    req = load_request(mbm_ur5, folder / "request0009.yaml", scene)
+    group = mbm_ur5.group(req.group)
+    request = MotionPlanRequest(req.group, JointGoal(req.goal), start=req.start, seed=9)
+    plan = Planner(scene, PlannerConfig(shortcut=False)).plan(request)
+    _assert_valid(scene, group, plan)
+    assert np.all(np.linalg.norm(np.diff(plan.path, axis=0), axis=1) > 0)
+
+
 def test_compiled_and_python_searches_both_go_around_the_wall(walled):
     """The compiled search (default) and the Python one (PlannerConfig(compiled=False), the
     fallback that settles unsure states exactly) each find a valid path."""

@@ -62,3 +62,17 @@ def test_sharp_corners_are_stops(waypoints):
 def test_bad_waypoints_are_refused():
     with pytest.raises(PlanningError, match="waypoints"):
         BlendedPath(np.zeros(3))
+
+
+def test_collinear_waypoints_need_no_rounding():
+    """A waypoint on the straight line between its neighbours is no corner: the path is that
+    line (an RRT's extension steps leave such waypoints). Equal directions read a turn of
+    1.5e-8 rad through acos, whose rounding had no direction (NaN)."""
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        a, d = rng.uniform(-1, 1, 6), rng.uniform(-1, 1, 6)
+        states = BlendedPath(np.array([a, a + d, a + 2 * d]), 0.05).sample_states(0.01)
+        assert np.all(np.isfinite(states))
+        t = (states - a) @ d / (d @ d)
+        assert np.allclose(states, a + t[:, None] * d, atol=1e-9)
+        assert np.allclose(states[-1], a + 2 * d)

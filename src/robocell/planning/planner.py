@@ -24,6 +24,7 @@ from robocell.planning.request import (
 )
 from robocell.planning.rrt import (
     Edges,
+    dedupe,
     rrt_connect,
     rrt_connect_compiled,
     shortcut,
@@ -113,6 +114,8 @@ class Planner:
             if cfg.shortcut:
                 budget = max(cfg.shortcut_min_states, edges.stats.states)
                 path = shortcut(edges, path, rng, deadline, budget=budget)
+            else:
+                path = dedupe(path)  # a tree's connect step can repeat a node
             ok, dev, bad = self._validate(checker, path)
             if not ok and planner_name.lower() in NATIVE_PLANNERS:
                 # repair the segments that collide between checked states, each by a search

@@ -272,7 +272,7 @@ def shortcut(
         else:
             fails += 1
     path = _skip_waypoints(edges, path, deadline)
-    return _dedupe(path)
+    return dedupe(path)
 
 
 def _skip_waypoints(
@@ -296,7 +296,8 @@ def _skip_waypoints(
     return np.array(out)
 
 
-def _dedupe(path: NDArray[np.float64]) -> NDArray[np.float64]:
+def dedupe(path: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``path`` without repeated consecutive waypoints (at least its two ends)."""
     keep = np.concatenate([[True], np.linalg.norm(np.diff(path, axis=0), axis=1) > 1e-9])
     out = path[keep]
     return out if len(out) >= 2 else np.vstack([path[0], path[-1]])

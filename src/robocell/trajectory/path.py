@@ -91,8 +91,9 @@ class BlendedPath(_ArcLengthPath):
         arcs: dict[int, tuple[NDArray[np.float64], ...]] = {}
         for i in range(1, n - 1):
             u1, u2 = u[i - 1], u[i]
-            cos_a = float(np.clip(u1 @ u2, -1.0, 1.0))
-            alpha = math.acos(cos_a)  # turning angle
+            # turning angle; acos(u1·u2) reads 1.5e-8 rad for two equal directions, whose
+            # corner then had no direction to round towards (NaN)
+            alpha = 2.0 * math.atan2(float(np.linalg.norm(u2 - u1)), float(np.linalg.norm(u2 + u1)))
             no_rounding = max_deviation <= 0 if blend_length is None else blend_length <= 0
             if alpha < 1e-9 or no_rounding or seg_len[i - 1] < 1e-12 or seg_len[i] < 1e-12:
                 continue
