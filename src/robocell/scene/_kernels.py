@@ -352,7 +352,7 @@ def _exact_self(a, b, TB, prim_start, prim_kind, prim_T, prim_dims):  # type: ig
 
 
 GJK_COST = 8  # what one GJK costs in triangle–box or triangle–triangle tests (the budget's unit)
-EXACT_BUDGET = 256  # triangle tests one pair may make before it is left to coal
+EXACT_BUDGET = 8192  # triangle tests one pair may make before it is left to coal
 PAIR_TAGS = 1 << 16  # more than any checker's pairs: a (state, pair) tag is cur * PAIR_TAGS + pair
 TOUCH = 3  # a pair's leaves touch and the kernel cannot settle it (the caller decides)
 
@@ -404,7 +404,7 @@ def triangle_box_overlap(tri, T, half):  # type: ignore[no-untyped-def]
     return True
 
 
-PAIR_SET = 1024  # slots of a per-thread hash set of triangle pairs (≥ 2 × EXACT_BUDGET)
+PAIR_SET = 16384  # slots of a per-thread hash set of triangle pairs (≥ 2 × EXACT_BUDGET)
 
 
 @njit(cache=True, inline="always")
@@ -914,8 +914,31 @@ def _table_value(q, ti, table_vars, table_n, table_off, table_values):  # type: 
 
 
 @njit(cache=True, inline="always")
+def _inner_overlap(a, b, rb, TB, nodes, inner, inner_start, W, Wi, stamp_i, cur):  # type: ignore[no-untyped-def]
+    """Whether an inner sphere of body a overlaps one of body b (both solid there: a certain
+    hit). ``rb``: b's root node, whose world centre is in W."""
+    for s in range(inner_start[a], inner_start[a + 1]):
+        _centre(s, a, TB, inner, Wi, stamp_i, cur)
+        dx = Wi[s, 0] - W[rb, 0]
+        dy = Wi[s, 1] - W[rb, 1]
+        dz = Wi[s, 2] - W[rb, 2]
+        rr = inner[s, 3] + nodes[rb, 3]
+        if dx * dx + dy * dy + dz * dz > rr * rr:
+            continue
+        for t in range(inner_start[b], inner_start[b + 1]):
+            _centre(t, b, TB, inner, Wi, stamp_i, cur)
+            dx = Wi[s, 0] - Wi[t, 0]
+            dy = Wi[s, 1] - Wi[t, 1]
+            dz = Wi[s, 2] - Wi[t, 2]
+            rr = inner[s, 3] + inner[t, 3]
+            if dx * dx + dy * dy + dz * dz < rr * rr:
+                return True
+    return False
+
+
+@njit(cache=True, inline="always")
 def _classify_state(
-    q, TB, model, W, stamp, Wi, stamp_i, seen, pairs, cur, stack, stack2, stack3, flags
+    q, TB, model, W, stamp, Wi, stamp_i, seen, pairs, cur, stack, stack2, stack3, flags, status
 ):  # type: ignore[no-untyped-def]
     """FREE / HIT / UNSURE for one state (full variables q, body poses in TB). Unsure pairs
     are flagged (world pairs first, then self pairs) for the exact stage. ``seen``: per-triangle
@@ -1056,14 +1079,15 @@ def _classify_state(
                 continue
         unsure = True
         flags[k] = True
-    skip_to = 0
-    for k in range(self_pairs.shape[0]):
-        if k < skip_to:
-            continue
+    # self pairs in two passes. The first makes the cheap decisions (tables, bounding spheres)
+    # and finds deep collisions (inner spheres of two solids overlapping) before any descent:
+    # a state in collision usually shows one there. ``status``: 0 = the second pass does all
+    # of the pair, 1 = decided (free), 2 = only its descent is left.
+    n_self = self_pairs.shape[0]
+    k = 0
+    while k < n_self:
         g = group_start[k]
         if g >= 0:
-            # broad phase: the pairs k … k + count − 1 are one body against the members of a
-            # rigid cluster; the cluster's union tree clear of that body's field clears them all
             x, u = group_bodies[g, 0], group_bodies[g, 1]
             rx, ru = body_root[x], body_root[u]
             _centre(rx, x, TB, nodes, W, stamp, cur)
@@ -1072,9 +1096,52 @@ def _classify_state(
             dy = W[rx, 1] - W[ru, 1]
             dz = W[rx, 2] - W[ru, 2]
             rr = nodes[rx, 3] + nodes[ru, 3]
+            far = dx * dx + dy * dy + dz * dz > rr * rr
+            for j in range(k, k + group_count[g]):
+                status[j] = 1 if far else 0
+            # the union's inner spheres lie inside members x is paired with
+            if not far and _inner_overlap(
+                x, u, ru, TB, nodes, inner, inner_start, W, Wi, stamp_i, cur
+            ):
+                return HIT
+            k += group_count[g]
+            continue
+        status[k] = 1
+        ti = pair_table[k]
+        if ti >= 0:
+            v = _table_value(q, ti, table_vars, table_n, table_off, table_values)
+            if v == TABLE_FREE:
+                k += 1
+                continue
+            if v == TABLE_HIT:
+                return HIT
+        a = self_pairs[k, 0]
+        b = self_pairs[k, 1]
+        ra, rb = body_root[a], body_root[b]
+        _centre(ra, a, TB, nodes, W, stamp, cur)
+        _centre(rb, b, TB, nodes, W, stamp, cur)
+        dx = W[ra, 0] - W[rb, 0]
+        dy = W[ra, 1] - W[rb, 1]
+        dz = W[ra, 2] - W[rb, 2]
+        rr = nodes[ra, 3] + nodes[rb, 3]
+        if dx * dx + dy * dy + dz * dz <= rr * rr:
+            # overlapping solids are a hit, however deep (a link inside another's shell has
+            # no crossing surfaces, and would make the descent exhaustive)
+            if _inner_overlap(a, b, rb, TB, nodes, inner, inner_start, W, Wi, stamp_i, cur):
+                return HIT
+            status[k] = 2
+        k += 1
+    skip_to = 0
+    for k in range(n_self):
+        if k < skip_to or status[k] == 1:
+            continue
+        g = group_start[k]
+        if g >= 0:
+            # broad phase: the pairs k … k + count − 1 are one body against the members of a
+            # rigid cluster; the cluster's union tree clear of that body's field clears them all
+            x, u = group_bodies[g, 0], group_bodies[g, 1]
             if (
-                dx * dx + dy * dy + dz * dz > rr * rr
-                or _tree_near_field(
+                _tree_near_field(
                     x,
                     u,
                     TB,
@@ -1109,42 +1176,21 @@ def _classify_state(
             ):
                 skip_to = k + group_count[g]
                 continue
-        ti = pair_table[k]
-        if ti >= 0:
-            v = _table_value(q, ti, table_vars, table_n, table_off, table_values)
-            if v == TABLE_FREE:
-                continue
-            if v == TABLE_HIT:
-                return HIT
         a = self_pairs[k, 0]
         b = self_pairs[k, 1]
         ra, rb = body_root[a], body_root[b]
-        _centre(ra, a, TB, nodes, W, stamp, cur)
-        _centre(rb, b, TB, nodes, W, stamp, cur)
-        dx = W[ra, 0] - W[rb, 0]
-        dy = W[ra, 1] - W[rb, 1]
-        dz = W[ra, 2] - W[rb, 2]
-        rr = nodes[ra, 3] + nodes[rb, 3]
-        if dx * dx + dy * dy + dz * dz > rr * rr:
-            continue
-        # inner spheres first: overlapping solids are a hit, however deep (a link inside
-        # another's shell has no crossing surfaces, and would make the descent exhaustive)
-        for s in range(inner_start[a], inner_start[a + 1]):
-            _centre(s, a, TB, inner, Wi, stamp_i, cur)
-            dx = Wi[s, 0] - W[rb, 0]
-            dy = Wi[s, 1] - W[rb, 1]
-            dz = Wi[s, 2] - W[rb, 2]
-            rr = inner[s, 3] + nodes[rb, 3]
+        if status[k] == 0:
+            # a group's member: its own bounding spheres and inner spheres
+            _centre(ra, a, TB, nodes, W, stamp, cur)
+            _centre(rb, b, TB, nodes, W, stamp, cur)
+            dx = W[ra, 0] - W[rb, 0]
+            dy = W[ra, 1] - W[rb, 1]
+            dz = W[ra, 2] - W[rb, 2]
+            rr = nodes[ra, 3] + nodes[rb, 3]
             if dx * dx + dy * dy + dz * dz > rr * rr:
                 continue
-            for t in range(inner_start[b], inner_start[b + 1]):
-                _centre(t, b, TB, inner, Wi, stamp_i, cur)
-                dx = Wi[s, 0] - Wi[t, 0]
-                dy = Wi[s, 1] - Wi[t, 1]
-                dz = Wi[s, 2] - Wi[t, 2]
-                rr = inner[s, 3] + inner[t, 3]
-                if dx * dx + dy * dy + dz * dz < rr * rr:
-                    return HIT
+            if _inner_overlap(a, b, rb, TB, nodes, inner, inner_start, W, Wi, stamp_i, cur):
+                return HIT
         m = pair_field[k]
         if m < 0:
             if not _trees_touch(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, stack2):
@@ -1230,6 +1276,7 @@ def _classify_range(
     stack = np.empty(256, np.int64)
     stack2 = np.empty((512, 2), np.int64)
     stack3 = np.empty(256, np.int64)
+    status = np.empty(model[26].shape[0], np.int8)
     for s in range(s0, s1):
         for i in range(group_idx.shape[0]):
             q[group_idx[i]] = qs[s, i]
@@ -1246,7 +1293,21 @@ def _classify_range(
                     )
         row = flags[s] if record_flags else scratch_row
         out[s] = _classify_state(
-            q, TB, model, W, stamp, Wi, stamp_i, seen, pairs, epoch + s, stack, stack2, stack3, row
+            q,
+            TB,
+            model,
+            W,
+            stamp,
+            Wi,
+            stamp_i,
+            seen,
+            pairs,
+            epoch + s,
+            stack,
+            stack2,
+            stack3,
+            row,
+            status,
         )
         if stop_early and out[s] != FREE:
             return

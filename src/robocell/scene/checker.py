@@ -33,13 +33,21 @@ from robocell.robot.model import JointGroup, RobotModel
 from robocell.scene import _kernels as K
 from robocell.scene.objects import AttachedObject
 from robocell.scene.pair_tables import Chain, PairTable, pair_table, table_chain
-from robocell.scene.spheres import DistanceGrid, SphereTree, body_grid, body_tree, build_tree
+from robocell.scene.spheres import (
+    DistanceGrid,
+    SphereTree,
+    body_grid,
+    body_tree,
+    build_tree,
+    prune_inner,
+)
 
 if TYPE_CHECKING:
     from robocell.scene.planning_scene import PlanningScene
 
 
 CHUNK = 64  # states per kernel task; a batch of at most one chunk runs in the calling thread
+UNION_INNER = 32  # inner spheres of a rigid cluster's union body (the first pass's hit test)
 
 
 @lru_cache(maxsize=16)
@@ -606,13 +614,17 @@ class CollisionChecker:
                 parts.append((b.name, np.round(T, 12)))
             key = ("union", tuple((n, T.tobytes()) for n, T in parts))
             if key not in cache.unions:
-                leaves = []
+                leaves: list[NDArray[np.float64]] = []
+                inner: list[NDArray[np.float64]] = []
                 for (_, T), m in zip(parts, members, strict=True):
-                    L = self.bodies[m].spheres.leaves
-                    leaves.append(np.c_[L[:, :3] @ T[:3, :3].T + T[:3, 3], L[:, 3]])
+                    t = self.bodies[m].spheres
+                    for S, into in ((t.leaves, leaves), (t.inner, inner)):
+                        into.append(np.c_[S[:, :3] @ T[:3, :3].T + T[:3, 3], S[:, 3]])
                 nodes, left, right, _ = build_tree(np.vstack(leaves))
                 no_tris = np.zeros(len(nodes) + 1, np.int64)
-                tree = SphereTree(nodes, left, right, np.zeros((0, 4)), tri_start=no_tris)
+                # inner spheres: the biggest of the members' (each inside a member's solid)
+                core = prune_inner(np.vstack(inner), UNION_INNER) if UNION_INNER else inner[0][:0]
+                tree = SphereTree(nodes, left, right, core, tri_start=no_tris)
                 cache.keep_union(key, tree)
             out.append(Body(f"<cluster of {rep}>", rep, np.eye(4), cache.unions[key], True, []))
         return out
