@@ -630,6 +630,91 @@ def _triangle_copy(V, out):  # type: ignore[no-untyped-def]
         out[i, 3] = (V[0, i] + V[1, i] + V[2, i]) / 3.0
 
 
+@njit(cache=True, inline="always")
+def _relative_pose(TB, f, b, R, t):  # type: ignore[no-untyped-def]
+    """Body b's frame in body f's: R = Rf^T Rb, t = Rf^T (tb - tf), into R (3, 3), t (3,)."""
+    for i in range(3):
+        for j in range(3):
+            R[i, j] = (
+                TB[f, 0, i] * TB[b, 0, j] + TB[f, 1, i] * TB[b, 1, j] + TB[f, 2, i] * TB[b, 2, j]
+            )
+        t[i] = (
+            TB[f, 0, i] * (TB[b, 0, 3] - TB[f, 0, 3])
+            + TB[f, 1, i] * (TB[b, 1, 3] - TB[f, 1, 3])
+            + TB[f, 2, i] * (TB[b, 2, 3] - TB[f, 2, 3])
+        )
+
+
+@njit(cache=True)
+def _near_members(
+    f,
+    u,
+    TB,
+    body_root,
+    nodes,
+    left,
+    right,
+    node_members,
+    field_kind,
+    grid_origin,
+    grid_box,
+    grid_h,
+    grid_dims,
+    grid_off,
+    grid_values,
+    prim_start,
+    prim_kind,
+    prim_T,
+    prim_dims,
+    stack,
+):  # type: ignore[no-untyped-def]
+    """The broad phase of a rigid cluster against body f: the union body u's tree descended
+    against f's distance field; a bit mask of the members (``node_members``: the members
+    under each node of u) that own a leaf the field does not clear. A subtree whose members
+    are all marked already is not descended."""
+    R = np.empty((3, 3))
+    t = np.empty(3)
+    _relative_pose(TB, f, u, R, t)
+    marked = 0
+    sp = 1
+    stack[0] = body_root[u]
+    while sp > 0:
+        sp -= 1
+        n = stack[sp]
+        if node_members[n] & ~marked == 0:
+            continue
+        sx, sy, sz = nodes[n, 0], nodes[n, 1], nodes[n, 2]
+        x = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
+        y = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
+        z = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
+        d = _field_bound(
+            x,
+            y,
+            z,
+            f,
+            field_kind,
+            grid_origin,
+            grid_box,
+            grid_h,
+            grid_dims,
+            grid_off,
+            grid_values,
+            prim_start,
+            prim_kind,
+            prim_T,
+            prim_dims,
+        )
+        if d > nodes[n, 3]:
+            continue
+        if left[n] < 0:
+            marked |= node_members[n]
+            continue
+        stack[sp] = left[n]
+        stack[sp + 1] = right[n]
+        sp += 2
+    return marked
+
+
 @njit(cache=True)
 def _tree_near_field(
     f,
@@ -660,12 +745,9 @@ def _tree_near_field(
     seen,
     pairs,
     tag,
-    broad=False,
 ):  # type: ignore[no-untyped-def]
     """Body b against body f by descending b's tree against f's distance field (one tree, not
-    two): GJK_FREE, GJK_HIT or TOUCH (leaves may touch; not settled here). ``broad``: a broad
-    phase only (b is a rigid cluster's union, see ``pair_groups``): TOUCH at the first leaf
-    the field does not clear. A triangle spans
+    two): GJK_FREE, GJK_HIT or TOUCH (leaves may touch; not settled here). A triangle spans
     many leaves: ``seen[tri] == tag`` marks one of b's tested against f's primitives, and the
     hash set ``pairs`` the pairs of triangles tested, in this call.
 
@@ -676,18 +758,9 @@ def _tree_near_field(
     # b's frame to f's: R = Rf^T Rb, t = Rf^T (tb - tf)
     R = np.empty((3, 3))
     t = np.empty(3)
-    for i in range(3):
-        for j in range(3):
-            R[i, j] = (
-                TB[f, 0, i] * TB[b, 0, j] + TB[f, 1, i] * TB[b, 1, j] + TB[f, 2, i] * TB[b, 2, j]
-            )
-        t[i] = (
-            TB[f, 0, i] * (TB[b, 0, 3] - TB[f, 0, 3])
-            + TB[f, 1, i] * (TB[b, 1, 3] - TB[f, 1, 3])
-            + TB[f, 2, i] * (TB[b, 2, 3] - TB[f, 2, 3])
-        )
+    _relative_pose(TB, f, b, R, t)
     exact_field = field_kind[f] == FIELD_PRIMITIVES
-    settle = (not broad) and body_mesh[b] and (exact_field or body_mesh[f])
+    settle = body_mesh[b] and (exact_field or body_mesh[f])
     tri_b = np.empty((3, 4))
     tri_f = np.empty((3, 4))
     tests = 0
@@ -726,7 +799,7 @@ def _tree_near_field(
             sp += 2
             continue
         if not settle:
-            if broad or exact_field or _tree_touches_sphere(
+            if exact_field or _tree_touches_sphere(
                 body_root[f], nodes, left, right, x, y, z, nodes[n, 3], stack2
             ):
                 return TOUCH
@@ -893,6 +966,11 @@ MODEL_FIELDS = (
     "group_start",
     "group_bodies",
     "group_count",
+    "node_members",
+    "pair_bit",
+    "world_group_start",
+    "world_group_union",
+    "world_group_count",
 )
 
 
@@ -997,12 +1075,40 @@ def _classify_state(
         group_start,
         group_bodies,
         group_count,
+        node_members,
+        pair_bit,
+        world_group_start,
+        world_group_union,
+        world_group_count,
     ) = model
     n_world = world_pairs.shape[0]
     unsure = False
+    skip_to = 0
     for k in range(n_world):
+        if k < skip_to:
+            continue
         b = world_pairs[k, 0]
         o = world_pairs[k, 1]
+        g = world_group_start[k]
+        if g >= 0:
+            # the pairs k … k + count − 1 are members of a rigid cluster against obstacle o:
+            # the union's bounding sphere clear of it clears them all
+            u = world_group_union[g]
+            ru = body_root[u]
+            _centre(ru, u, TB, nodes, W, stamp, cur)
+            dx = W[ru, 0] - obs_sphere[o, 0]
+            dy = W[ru, 1] - obs_sphere[o, 1]
+            dz = W[ru, 2] - obs_sphere[o, 2]
+            rr = nodes[ru, 3] + obs_sphere[o, 3]
+            if (
+                dx * dx + dy * dy + dz * dz > rr * rr
+                or _obstacle_distance(
+                    W[ru, 0], W[ru, 1], W[ru, 2], obs_kind[o], obs_T[o], obs_dims[o]
+                )
+                > nodes[ru, 3]
+            ):
+                skip_to = k + world_group_count[g]
+                continue
         # broadphase: the body's bounding sphere against the obstacle's
         r0 = body_root[b]
         _centre(r0, b, TB, nodes, W, stamp, cur)
@@ -1131,50 +1237,40 @@ def _classify_state(
                 return HIT
             status[k] = 2
         k += 1
-    skip_to = 0
     for k in range(n_self):
-        if k < skip_to or status[k] == 1:
+        if status[k] == 1:
             continue
         g = group_start[k]
         if g >= 0:
-            # broad phase: the pairs k … k + count − 1 are one body against the members of a
-            # rigid cluster; the cluster's union tree clear of that body's field clears them all
-            x, u = group_bodies[g, 0], group_bodies[g, 1]
-            if (
-                _tree_near_field(
-                    x,
-                    u,
-                    TB,
-                    body_root,
-                    nodes,
-                    left,
-                    right,
-                    field_kind,
-                    grid_origin,
-                    grid_box,
-                    grid_h,
-                    grid_dims,
-                    grid_off,
-                    grid_values,
-                    prim_start,
-                    prim_kind,
-                    prim_T,
-                    prim_dims,
-                    body_mesh,
-                    node_tri_start,
-                    node_tri_ids,
-                    tri_V,
-                    tri_sphere,
-                    stack,
-                    stack3,
-                    seen,
-                    pairs,
-                    0,
-                    True,
-                )
-                == GJK_FREE
-            ):
-                skip_to = k + group_count[g]
+            # broad phase: the pairs k … k + count − 1 are one body against members of a
+            # rigid cluster; one descent of the cluster's union tree against that body's
+            # field says which members come near it, and only their pairs go on
+            near = _near_members(
+                group_bodies[g, 0],
+                group_bodies[g, 1],
+                TB,
+                body_root,
+                nodes,
+                left,
+                right,
+                node_members,
+                field_kind,
+                grid_origin,
+                grid_box,
+                grid_h,
+                grid_dims,
+                grid_off,
+                grid_values,
+                prim_start,
+                prim_kind,
+                prim_T,
+                prim_dims,
+                stack,
+            )
+            for j in range(k, k + group_count[g]):
+                if (near >> pair_bit[j]) & 1 == 0:
+                    status[j] = 1
+            if status[k] == 1:
                 continue
         a = self_pairs[k, 0]
         b = self_pairs[k, 1]

@@ -354,6 +354,53 @@ class _PairGroup:
     pairs: list[int]
 
 
+def _regroup(
+    pairs: list[tuple[int, int]], groups: list[_PairGroup]
+) -> tuple[list[tuple[int, int]], list[_PairGroup]]:
+    """``pairs`` reordered so that each group's pairs are consecutive, where its first pair
+    was, and the groups with their new pair indices."""
+    if not groups:
+        return pairs, groups
+    taken = {k for g in groups for k in g.pairs}
+    by_first = {g.pairs[0]: g for g in groups}
+    order: list[int] = []
+    out = []
+    for k in range(len(pairs)):
+        if k in by_first:
+            g = by_first[k]
+            out.append(
+                _PairGroup(g.body, g.union, list(range(len(order), len(order) + len(g.pairs))))
+            )
+            order += g.pairs
+        elif k not in taken:
+            order.append(k)
+    return [pairs[k] for k in order], out
+
+
+def _anchors(
+    robot: RobotModel, group: JointGroup, base: NDArray[np.float64]
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Per link: its anchor (the child link of the last joint on its path from the root that
+    the group moves, or the root) and its pose in the anchor's frame, which the joints outside
+    the group fix at ``base``."""
+    t = robot.tree
+    moving = {int(i) for i in group.indices}
+    T = link_poses(robot, base)
+    parent_joint = {int(c): j for j, c in enumerate(t.child_link)}
+    root = robot.link_index(robot.root_link)
+    anchor = np.empty(t.n_links, np.int64)
+    for link in range(t.n_links):
+        k = link
+        while k in parent_joint:
+            j = parent_joint[k]
+            if t.var[j] >= 0 and int(t.var[j]) in moving:
+                break
+            k = int(t.parent_link[j])
+        anchor[link] = k if k in parent_joint else root
+    T_anchor_link = np.einsum("lij,ljk->lik", np.linalg.inv(T[anchor]), T)
+    return anchor, T_anchor_link
+
+
 def _motion_signatures(
     robot: RobotModel, links: list[str], group: JointGroup
 ) -> list[frozenset[int]]:
@@ -387,12 +434,14 @@ class _RobotTables:
     chains: dict[tuple[Any, ...], Chain | None] = field(default_factory=dict)
     tables: dict[tuple[Any, ...], PairTable] = field(default_factory=dict)
     packed: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = field(default_factory=dict)
-    unions: dict[tuple[Any, ...], SphereTree] = field(default_factory=dict)
+    unions: dict[tuple[Any, ...], tuple[SphereTree, NDArray[np.int64]]] = field(
+        default_factory=dict
+    )
 
     KEEP = 16
 
-    def keep_union(self, key: tuple[Any, ...], tree: SphereTree) -> None:
-        self.unions[key] = tree
+    def keep_union(self, key: tuple[Any, ...], union: tuple[SphereTree, NDArray[np.int64]]) -> None:
+        self.unions[key] = union
         while len(self.unions) > self.KEEP:
             self.unions.pop(next(iter(self.unions)))
 
@@ -550,8 +599,10 @@ class CollisionChecker:
         """The broad phase over rigid clusters: the robot's moving links that the same group
         joints move (a UR5's wrist 3 and its gripper's ten links) form a cluster; a body with
         self pairs against two or more of its members gets one test of the cluster's union
-        tree against its distance field before those pairs. ``self_pairs`` is reordered so
-        that each group's pairs are consecutive (a group's first pair keeps its place)."""
+        tree against its distance field before those pairs, and each obstacle one test of
+        the union's bounding sphere before the members' world pairs. ``self_pairs`` and
+        ``world_pairs`` are reordered so that each group's pairs are consecutive (where its
+        first pair was)."""
         self._unions: list[tuple[int, ...]] = []
         clusters: dict[frozenset[int], list[int]] = {}
         for i in range(n_robot):
@@ -571,39 +622,45 @@ class CollisionChecker:
             km = [(k, m) for k, m in km if k not in taken]
             if len(km) < 2 or self.bodies[x].field_kind == K.FIELD_NONE:
                 continue
+            # the union of just the members x has pairs with (the ACM may allow some), at most
+            # 62 of them (the kernel marks members as bits of an int64)
+            members = tuple(sorted({m for _, m in km}))[:62]
+            km = [(k, m) for k, m in km if m in members]
+            if len(km) < 2:
+                continue
             taken.update(k for k, _ in km)
-            # the union of just the members x has pairs with (the ACM may allow some)
-            members = tuple(sorted({m for _, m in km}))
             u = unions.setdefault(members, len(unions))
             groups.append(_PairGroup(x, u, [k for k, _ in km]))
+        # world pairs: a cluster's members against one obstacle, behind the union's sphere
+        w_by_key: dict[tuple[int, int], list[tuple[int, int]]] = {}
+        for k, (b, o) in enumerate(self.world_pairs):
+            if b in member_of:
+                w_by_key.setdefault((o, member_of[b]), []).append((k, b))
+        self._world_groups: list[_PairGroup] = []
+        for (o, _), km in w_by_key.items():
+            members = tuple(sorted({m for _, m in km}))[:62]
+            km = [(k, m) for k, m in km if m in members]
+            if len(km) >= 2:
+                u = unions.setdefault(members, len(unions))
+                self._world_groups.append(_PairGroup(o, u, [k for k, _ in km]))
+        self.world_pairs, self._world_groups = _regroup(self.world_pairs, self._world_groups)
         self._unions = list(unions)
         if not groups:
             return []
-        order: list[int] = []
-        start = []
-        by_first = {g.pairs[0]: g for g in groups}
-        for k in range(len(self.self_pairs)):
-            if k in by_first:
-                start.append(len(order))
-                order += by_first[k].pairs
-            elif k not in taken:
-                order.append(k)
-        self.self_pairs = [self.self_pairs[k] for k in order]
-        out = []
-        for g, s0 in zip((by_first[k] for k in sorted(by_first)), start, strict=True):
-            out.append(_PairGroup(g.body, g.union, list(range(s0, s0 + len(g.pairs)))))
-        return out
+        self.self_pairs, groups = _regroup(self.self_pairs, groups)
+        return groups
 
     def _union_bodies(self) -> list[Body]:
         """One body per member set of :meth:`_pair_groups`: the members' sphere-tree leaves in
         the frame of the first member's link, under one tree (cached per robot by the members'
         relative poses, which the joints outside the group set)."""
-        if not self._groups:
+        if not self._unions:
             return []
         robot = self.robot
         cache = _TABLES.setdefault(robot, _RobotTables())
         T_link = link_poses(robot, self.base_positions)
         out = []
+        self._union_bits: list[NDArray[np.int64]] = []
         for members in self._unions:
             rep = self.bodies[members[0]].link
             T_rep_world = invert_transform(T_link[robot.link_index(rep)])
@@ -620,22 +677,38 @@ class CollisionChecker:
                     t = self.bodies[m].spheres
                     for S, into in ((t.leaves, leaves), (t.inner, inner)):
                         into.append(np.c_[S[:, :3] @ T[:3, :3].T + T[:3, 3], S[:, 3]])
-                nodes, left, right, _ = build_tree(np.vstack(leaves))
+                nodes, left, right, leaf_of = build_tree(np.vstack(leaves))
                 no_tris = np.zeros(len(nodes) + 1, np.int64)
                 # inner spheres: the biggest of the members' (each inside a member's solid)
-                core = prune_inner(np.vstack(inner), UNION_INNER) if UNION_INNER else inner[0][:0]
+                core = prune_inner(np.vstack(inner), UNION_INNER)
                 tree = SphereTree(nodes, left, right, core, tri_start=no_tris)
-                cache.keep_union(key, tree)
-            out.append(Body(f"<cluster of {rep}>", rep, np.eye(4), cache.unions[key], True, []))
+                # each node's members, as bits (children come after their parent)
+                owner = np.repeat(np.arange(len(leaves)), [len(x) for x in leaves])
+                bits = np.zeros(len(nodes), np.int64)
+                is_leaf = leaf_of >= 0
+                bits[is_leaf] = np.left_shift(1, owner[leaf_of[is_leaf]])
+                for n in range(len(nodes) - 1, -1, -1):
+                    if left[n] >= 0:
+                        bits[n] = bits[left[n]] | bits[right[n]]
+                cache.keep_union(key, (tree, bits))
+            tree, bits = cache.unions[key]
+            out.append(Body(f"<cluster of {rep}>", rep, np.eye(4), tree, True, []))
+            self._union_bits.append(bits)
         return out
 
     # ------------------------------------------------------------------ packing for the kernel
     def _pack(self) -> None:
         robot, group = self.robot, self.group
         bodies = self.bodies
-        link_idx = np.array([robot.link_index(b.link) for b in bodies], dtype=np.int64)
+        # each body rides on its anchor, the link below the last group joint on its path, at
+        # a pose the other joints fix: FK then runs over the group's chain alone (the UR5's
+        # gripper and flange frames are 14 of its 20 links)
+        anchor, T_anchor_link = _anchors(robot, group, self.base_positions)
+        link_idx = np.array([anchor[robot.link_index(b.link)] for b in bodies], dtype=np.int64)
         self._body_link = link_idx
-        self._body_T = np.array([b.T_link_body for b in bodies]).reshape(-1, 4, 4)
+        self._body_T = np.array(
+            [T_anchor_link[robot.link_index(b.link)] @ b.T_link_body for b in bodies]
+        ).reshape(-1, 4, 4)
         n_robot = len(robot_spheres(robot))
         # the robot's links are packed once per robot; held objects are appended
         packed = _robot_pack(robot, tuple(b.name for b in bodies[:n_robot]))
@@ -660,8 +733,26 @@ class CollisionChecker:
         body_link, body_T = link_idx, self._body_T
         if unions:
             packed = _merge(packed, pack_bodies(unions))
-            body_link = np.concatenate([link_idx, [robot.link_index(u.link) for u in unions]])
-            body_T = np.concatenate([body_T, np.tile(np.eye(4), (len(unions), 1, 1))])
+            ui = [robot.link_index(u.link) for u in unions]
+            body_link = np.concatenate([link_idx, anchor[ui]])
+            body_T = np.concatenate([body_T, T_anchor_link[ui]])
+        node_members = np.zeros(len(packed.nodes), np.int64)
+        for i, bits in enumerate(self._union_bits if unions else []):
+            r = int(packed.body_root[len(bodies) + i])
+            node_members[r : r + len(bits)] = bits
+        pair_bit = np.full(len(self.self_pairs), -1, np.int64)
+        for g in self._groups:
+            members = self._unions[g.union]
+            for k in g.pairs:
+                i, j = self.self_pairs[k]
+                pair_bit[k] = members.index(j if i == g.body else i)
+        world_group_start = np.full(len(self.world_pairs), -1, np.int64)
+        world_group_union = np.zeros(len(self._world_groups), np.int64)
+        world_group_count = np.zeros(len(self._world_groups), np.int64)
+        for gi, g in enumerate(self._world_groups):
+            world_group_start[g.pairs[0]] = gi
+            world_group_union[gi] = len(bodies) + g.union
+            world_group_count[gi] = len(g.pairs)
         n_groups = len(self._groups)
         group_start = np.full(len(self.self_pairs), -1, np.int64)
         group_bodies = np.zeros((n_groups, 2), np.int64)
@@ -709,6 +800,11 @@ class CollisionChecker:
             group_start,
             group_bodies,
             group_count,
+            node_members,
+            pair_bit,
+            world_group_start,
+            world_group_union,
+            world_group_count,
         )
         assert len(self._model) == len(K.MODEL_FIELDS)
 
