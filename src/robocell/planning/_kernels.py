@@ -186,3 +186,123 @@ def rrt_connect(
         Pa, Pb = Pb, Pa
         na, nb = nb, na
         a_is_start = not a_is_start
+
+
+@njit(cache=True)
+def _edge_free(a, b, resolution, model, scratch, epoch, buf, stats):  # type: ignore[no-untyped-def]
+    """Whether the segment a → b (b included, a assumed free) is free, its states at most
+    ``resolution`` apart per joint, checked every 8th first (a blocked edge is usually found
+    early) and stopping at the first state that is not FREE. Counts epochs and states in
+    ``stats`` (2: epochs used, 3: states checked)."""
+    dof = a.shape[0]
+    dist = 0.0
+    for j in range(dof):
+        dist = max(dist, abs(b[j] - a[j]))
+    n = max(1, int(math.ceil(dist / resolution)))
+    if n > buf.shape[0]:
+        buf = np.empty((n, dof))
+    r = 0
+    for phase in range(2):
+        for k in range(n):
+            coarse = (k % 8 == 7) or n <= 16
+            if coarse != (phase == 0):
+                continue
+            t = (k + 1) / n
+            for j in range(dof):
+                buf[r, j] = a[j] + t * (b[j] - a[j])
+            r += 1
+    out, _ = SK.classify_serial(buf[:n], model, scratch, epoch + stats[2], False, True)
+    stats[2] += n
+    for k in range(n):
+        if out[k] != SK.FREE:
+            stats[3] += k + 1
+            return False
+    stats[3] += n
+    return True
+
+
+@njit(cache=True)
+def _skip_waypoints(path, resolution, model, scratch, epoch, buf, stats, deadline):  # type: ignore[no-untyped-def]
+    """From each kept waypoint, jump to the farthest one reachable in a straight line."""
+    n = path.shape[0]
+    keep = np.empty(n, np.int64)
+    keep[0] = 0
+    m = 1
+    i = 0
+    while i < n - 1:
+        j = n - 1
+        while j > i + 1:
+            if _clock() > deadline:
+                j = i + 1
+                break
+            if _edge_free(path[i], path[j], resolution, model, scratch, epoch, buf, stats):
+                break
+            j -= 1
+        keep[m] = j
+        m += 1
+        i = j
+    return path[keep[:m]].copy()
+
+
+@njit(cache=True)
+def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries, budget):  # type: ignore[no-untyped-def]
+    """:func:`robocell.planning.rrt.shortcut` compiled: greedy waypoint skipping, random
+    shortcuts between points on the path (at most ``max_tries``, until 12 fail in a row or
+    ``budget`` states are checked), greedy again; repeated waypoints dropped. Returns the
+    path and stats (2: epochs used, 3: states checked)."""
+    np.random.seed(seed)  # noqa: NPY002 (numba's generator)
+    dof = path.shape[1]
+    stats = np.zeros(4, np.int64)
+    buf = np.empty((4096, dof))
+    path = _skip_waypoints(path, resolution, model, scratch, epoch, buf, stats, deadline)
+    stop_at = stats[3] + budget
+    fails = 0
+    tries = 0
+    while path.shape[0] > 2 and tries < max_tries and fails < 12 and _clock() < deadline:
+        if stats[3] >= stop_at:
+            break
+        tries += 1
+        K = path.shape[0]
+        cum = np.zeros(K)
+        for s in range(1, K):
+            cum[s] = cum[s - 1] + np.sqrt(np.sum((path[s] - path[s - 1]) ** 2))
+        total = cum[K - 1]
+        if total < 1e-9:
+            break
+        s1 = np.random.random() * total  # noqa: NPY002
+        s2 = np.random.random() * total  # noqa: NPY002
+        if s1 > s2:
+            s1, s2 = s2, s1
+        i1 = min(np.searchsorted(cum, s1, side="right") - 1, K - 2)
+        i2 = min(np.searchsorted(cum, s2, side="right") - 1, K - 2)
+        if i1 == i2:
+            fails += 1
+            continue
+        l1 = max(cum[i1 + 1] - cum[i1], 1e-12)
+        l2 = max(cum[i2 + 1] - cum[i2], 1e-12)
+        p1 = path[i1] + (path[i1 + 1] - path[i1]) * ((s1 - cum[i1]) / l1)
+        p2 = path[i2] + (path[i2 + 1] - path[i2]) * ((s2 - cum[i2]) / l2)
+        if np.sqrt(np.sum((p2 - p1) ** 2)) > (s2 - s1) - 1e-6:
+            fails += 1
+            continue
+        if _edge_free(p1, p2, resolution, model, scratch, epoch, buf, stats):
+            new = np.empty((i1 + 1 + 2 + K - i2 - 1, dof))
+            new[: i1 + 1] = path[: i1 + 1]
+            new[i1 + 1] = p1
+            new[i1 + 2] = p2
+            new[i1 + 3 :] = path[i2 + 1 :]
+            path = new
+            fails = 0
+        else:
+            fails += 1
+    path = _skip_waypoints(path, resolution, model, scratch, epoch, buf, stats, deadline)
+    # repeated waypoints dropped (at least the two ends)
+    keep = np.ones(path.shape[0], np.bool_)
+    for s in range(1, path.shape[0]):
+        keep[s] = np.sqrt(np.sum((path[s] - path[s - 1]) ** 2)) > 1e-9
+    out = path[keep]
+    if out.shape[0] < 2:
+        out = np.empty((2, dof))
+        out[0] = path[0]
+        out[1] = path[path.shape[0] - 1]
+    return out, stats

@@ -28,6 +28,7 @@ from robocell.planning.rrt import (
     rrt_connect,
     rrt_connect_compiled,
     shortcut,
+    shortcut_compiled,
     warm_up,
 )
 from robocell.robot.model import JointGroup
@@ -52,8 +53,10 @@ class PlannerConfig:
     shortcut: bool = True
     compiled: bool = True  # the search compiled whole (numba); False: the Python search alone
     compiled_share: float = 0.8  # of the time budget; the Python search gets the rest
-    # the random shortcuts may check as many states as the search did, and at least this many
-    shortcut_min_states: int = 300
+    # the random shortcuts may check this share of the states the search checked, and at
+    # least shortcut_min_states
+    shortcut_share: float = 0.5
+    shortcut_min_states: int = 100
     ik_timeout: float = 0.05
     numeric_goal_solutions: int = 4
     fix_start_radius: float = 0.2
@@ -112,8 +115,8 @@ class Planner:
                 )
                 continue
             if cfg.shortcut:
-                budget = max(cfg.shortcut_min_states, edges.stats.states)
-                path = shortcut(edges, path, rng, deadline, budget=budget)
+                budget = max(cfg.shortcut_min_states, int(cfg.shortcut_share * edges.stats.states))
+                path = self._shortcut(edges, path, rng, deadline, budget)
             else:
                 path = dedupe(path)  # a tree's connect step can repeat a node
             ok, dev, bad = self._validate(checker, path)
@@ -337,6 +340,18 @@ class Planner:
             int(rng.integers(2**31)),
         )
 
+    def _shortcut(
+        self,
+        edges: Edges,
+        path: NDArray[np.float64],
+        rng: np.random.Generator,
+        deadline: float,
+        budget: int,
+    ) -> NDArray[np.float64]:
+        if self.config.compiled:
+            return shortcut_compiled(edges, path, rng, deadline, budget=budget)
+        return shortcut(edges, path, rng, deadline, budget=budget)
+
     def _repair(
         self,
         checker: CollisionChecker,
@@ -356,7 +371,7 @@ class Planner:
             sub = self._solve("", fine, a, b[None, :], group, rng, deadline)
             if sub is None:
                 return None
-            out.extend(shortcut(fine, sub, rng, deadline, budget=fine.stats.states)[1:])
+            out.extend(self._shortcut(fine, sub, rng, deadline, fine.stats.states)[1:])
         return np.array(out)
 
     def _validate(

@@ -191,6 +191,35 @@ def rrt_connect_compiled(
     return path if status == PK.FOUND else None
 
 
+def shortcut_compiled(
+    edges: Edges,
+    path: NDArray[np.float64],
+    rng: np.random.Generator,
+    deadline: float,
+    max_tries: int = 40,
+    budget: int | None = None,
+) -> NDArray[np.float64]:
+    """:func:`shortcut` compiled whole on the collision kernel (one call instead of one per
+    edge). A state the kernel leaves unsure blocks its edge (the shortcut is not taken)."""
+    from robocell.planning import _kernels as PK
+    from robocell.scene.checker import next_epoch
+
+    model, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
+    out, stats = PK.shortcut(
+        np.ascontiguousarray(path, dtype=float),
+        int(rng.integers(2**31)),
+        deadline,
+        edges.resolution,
+        model,
+        scratch,
+        next_epoch(1 << 40),
+        max_tries,
+        (1 << 62) if budget is None else int(budget),
+    )
+    edges.stats.states += int(stats[3])
+    return out  # type: ignore[no-any-return]
+
+
 _WARM = [False]
 
 
@@ -206,6 +235,7 @@ def warm_up(checker: BatchChecker) -> None:
     q = np.ascontiguousarray(model[1][model[0]], dtype=float)  # the current state
     PK.rrt_connect(q, q[None, :], q - 1, q + 1, 0, 0.0, 0.05, 1.0, model, scratch,
                    next_epoch(1 << 20), 16)  # fmt: skip
+    PK.shortcut(np.array([q, q + 0.01]), 0, 0.0, 0.05, model, scratch, next_epoch(1 << 20), 1, 1)
     PK._clock()  # numba's object mode costs 50 ms on its first call (measured)
     _WARM[0] = True
 
