@@ -2,7 +2,12 @@ import numpy as np
 import pytest
 
 from robocell.geometry import Box, Cylinder, Mesh, Sphere, triangulate
-from robocell.scene.spheres import distance_grid, shape_tree, signed_distance
+from robocell.scene.spheres import (
+    distance_grid,
+    shape_tree,
+    signed_distance,
+    winding_and_distance,
+)
 
 
 def _leaves_of(tree, i):
@@ -59,29 +64,50 @@ def test_every_node_contains_the_leaves_below_it():
         )
 
 
-def test_distance_grid_is_a_lower_bound_of_the_distance_to_the_leaves():
+def _grid_bounds(grid, P):
+    """grid(g) − |x − g| at the nearest grid point g, and the box bound, for points P."""
+    idx = np.clip(np.round((P - grid.origin) / grid.h), 0, grid.dims - 1).astype(int)
+    g = grid.origin + idx * grid.h
+    flat = (idx[:, 0] * grid.dims[1] + idx[:, 1]) * grid.dims[2] + idx[:, 2]
+    bound = grid.values[flat] - np.linalg.norm(P - g, axis=1)
+    box = np.linalg.norm(np.maximum(np.maximum(grid.box[0] - P, P - grid.box[1]), 0), axis=1)
+    return bound, box, np.abs(P - g).max(axis=1)
+
+
+def test_distance_grid_is_a_lower_bound_of_the_distance_to_the_mesh_surface():
     """At any point x and its nearest grid point g, grid(g) − |x − g| ≤ the distance from x to
-    the union of the leaf spheres; far outside, the box bound holds."""
+    the mesh's triangles (what coal tests); far outside, the box bound holds. Near the body the
+    bound is within the grid's diagonal of the truth (leaf spheres alone fell a leaf radius
+    further short)."""
     V, F = triangulate(Cylinder(0.05, 0.3), segments=40)
     tree = shape_tree(Mesh(V, F))
     grid = distance_grid(tree)
     rng = np.random.default_rng(2)
     span = (grid.dims - 1) * grid.h
     P = grid.origin + rng.uniform(-0.2, 1.2, (3000, 3)) * span
-    idx = np.clip(np.round((P - grid.origin) / grid.h), 0, grid.dims - 1).astype(int)
-    g = grid.origin + idx * grid.h
-    flat = (idx[:, 0] * grid.dims[1] + idx[:, 1]) * grid.dims[2] + idx[:, 2]
-    bound = grid.values[flat] - np.linalg.norm(P - g, axis=1)
-    box = np.linalg.norm(np.maximum(np.maximum(grid.box[0] - P, P - grid.box[1]), 0), axis=1)
+    bound, box, off = _grid_bounds(grid, P)
+    true = winding_and_distance(P, tree.tris)[1]
+    assert np.all(np.maximum(bound, box) <= true + 1e-12)
+    near = (true < 0.02) & (off < 0.5 * grid.h + 1e-12)
+    assert near.sum() > 50
+    assert np.all(true[near] - bound[near] <= np.sqrt(3) * grid.h + 1e-6)
+    leaf_radius = tree.leaves[:, 3].max()
+    assert np.median(true[near] - bound[near]) < 0.5 * leaf_radius
+
+
+def test_distance_grid_of_a_primitive_bounds_the_distance_to_its_leaves():
+    """A primitive's leaves cover its solid: the grid bounds the distance to them."""
+    tree = shape_tree(Box((0.1, 0.2, 0.05)))
+    grid = distance_grid(tree)
+    rng = np.random.default_rng(5)
+    P = grid.origin + rng.uniform(-0.2, 1.2, (2000, 3)) * (grid.dims - 1) * grid.h
+    bound, box, _ = _grid_bounds(grid, P)
     L = tree.leaves
     true = np.maximum(
         (np.linalg.norm(P[:, None, :] - L[None, :, :3], axis=2) - L[None, :, 3]).min(axis=1), 0
     )
     assert np.all(np.maximum(bound, box) <= true + 1e-12)
-    # and it is tight near the body: within the grid's half diagonal plus a leaf radius
-    near = (true < 0.02) & (np.abs(P - g).max(axis=1) < 0.5 * grid.h + 1e-12)
-    assert near.sum() > 50
-    assert np.all(true[near] - bound[near] <= np.sqrt(3) * grid.h + 1e-9)
+    assert (true < 0.01).sum() > 20
 
 
 def test_every_point_of_a_triangle_is_in_a_leaf_that_lists_the_triangle():

@@ -37,7 +37,7 @@ from robocell.scene.spheres import SPHERE_MODEL_VERSION, _cache_dir, _shape_key
 
 TABLE_FREE, TABLE_HIT = K.TABLE_FREE, K.TABLE_HIT
 TABLE_CHECK = 2
-TABLE_VERSION = 1
+TABLE_VERSION = 2  # 2: distance grids exact to mesh surfaces
 CELLS = {1: 4096, 2: 1024}  # cells per axis of the finest grid, by number of angles
 COARSE = 16  # cells per axis of the first grid
 SLACK = 1e-6  # [m] added to every margin
