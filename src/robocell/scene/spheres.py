@@ -518,8 +518,8 @@ def shape_tree(
 # and grid point g: dist(x) >= grid(g) - |x - g|. The checker descends one body's tree against
 # the other's grid (one tree instead of two): pairs of links that are always a few mm apart
 # cost several times less than a dual-tree descent.
-GRID_POINTS = 400_000  # most points per body's grid (1.6 MB as float32)
-GRID_STEP = 0.003  # [m] finest grid step
+GRID_POINTS = 1_500_000  # most points per body's grid (6 MB as float32)
+GRID_STEP = 0.002  # [m] finest grid step
 GRID_MARGIN = 0.02  # [m] the grid reaches this far past the leaves; beyond, the box bound holds
 
 
