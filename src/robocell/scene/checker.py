@@ -14,6 +14,7 @@ skipping pairs the allowed-collision matrix allows.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import weakref
 from dataclasses import dataclass, field
@@ -36,10 +37,10 @@ from robocell.scene.pair_tables import Chain, PairTable, pair_table, table_chain
 from robocell.scene.spheres import (
     DistanceGrid,
     SphereTree,
+    _shape_key,
     body_grid,
     body_tree,
     build_tree,
-    prune_inner,
 )
 
 if TYPE_CHECKING:
@@ -354,6 +355,62 @@ class _PairGroup:
     pairs: list[int]
 
 
+def _shapes_key(shapes: list[tuple[Shape, NDArray[np.float64]]]) -> str:
+    h = hashlib.sha1()
+    for shape, T in shapes:
+        h.update(_shape_key(shape))
+        h.update(np.round(np.asarray(T, float), 12).tobytes())
+    return h.hexdigest()
+
+
+def _union_tree(
+    trees: list[SphereTree], T_union_member: list[NDArray[np.float64]]
+) -> tuple[SphereTree, NDArray[np.int64]]:
+    """The union of members' sphere trees placed at ``T_union_member``: a small tree over the
+    members' root spheres whose leaves are the members' own trees (no rebuild: a checker is
+    built per gripper opening, and rebuilding a UR5 hand's tree took 20 ms), the biggest of
+    their inner spheres, and each node's members as bits."""
+    parts = [
+        np.c_[t.nodes[:, :3] @ T[:3, :3].T + T[:3, 3], t.nodes[:, 3]]
+        for t, T in zip(trees, T_union_member, strict=True)
+    ]
+    top, top_left, top_right, top_leaf_of = build_tree(np.array([P[0] for P in parts]))
+    offset = np.cumsum([len(top)] + [len(P) for P in parts])[:-1]
+    # a top leaf stands for member j: links to it go to the member's root instead
+    redirect = np.arange(len(top))
+    redirect[top_leaf_of >= 0] = offset[top_leaf_of[top_leaf_of >= 0]]
+    left = [np.where(top_left >= 0, redirect[np.maximum(top_left, 0)], -1)]
+    right = [np.where(top_right >= 0, redirect[np.maximum(top_right, 0)], -1)]
+    bits = [np.zeros(len(top), np.int64)]
+    for j, (t, o) in enumerate(zip(trees, offset, strict=True)):
+        left.append(np.where(t.left >= 0, t.left + o, -1))
+        right.append(np.where(t.right >= 0, t.right + o, -1))
+        bits.append(np.full(len(t.nodes), 1 << j, np.int64))
+    all_bits = np.concatenate(bits)
+    # the top tree's nodes: their members' bits (children come after their parent)
+    for n in range(len(top) - 1, -1, -1):
+        if top_leaf_of[n] >= 0:
+            all_bits[n] = 1 << int(top_leaf_of[n])
+        elif top_left[n] >= 0:
+            all_bits[n] = all_bits[top_left[n]] | all_bits[top_right[n]]
+    inner = np.vstack(
+        [
+            np.c_[t.inner[:, :3] @ T[:3, :3].T + T[:3, 3], t.inner[:, 3]]
+            for t, T in zip(trees, T_union_member, strict=True)
+        ]
+    )
+    inner = inner[np.argsort(-inner[:, 3], kind="stable")[:UNION_INNER]]
+    nodes = np.vstack([top, *parts])
+    tree = SphereTree(
+        nodes,
+        np.concatenate(left).astype(np.int64),
+        np.concatenate(right).astype(np.int64),
+        inner,
+        tri_start=np.zeros(len(nodes) + 1, np.int64),
+    )
+    return tree, all_bits
+
+
 def _regroup(
     pairs: list[tuple[int, int]], groups: list[_PairGroup]
 ) -> tuple[list[tuple[int, int]], list[_PairGroup]]:
@@ -434,11 +491,17 @@ class _RobotTables:
     chains: dict[tuple[Any, ...], Chain | None] = field(default_factory=dict)
     tables: dict[tuple[Any, ...], PairTable] = field(default_factory=dict)
     packed: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = field(default_factory=dict)
+    merged: dict[tuple[Any, ...], Packed] = field(default_factory=dict)
     unions: dict[tuple[Any, ...], tuple[SphereTree, NDArray[np.int64]]] = field(
         default_factory=dict
     )
 
     KEEP = 16
+
+    def keep_merged(self, key: tuple[Any, ...], packed: Packed) -> None:
+        self.merged[key] = packed
+        while len(self.merged) > 4:  # each holds a copy of the links' arrays (tens of MB)
+            self.merged.pop(next(iter(self.merged)))
 
     def keep_union(self, key: tuple[Any, ...], union: tuple[SphereTree, NDArray[np.int64]]) -> None:
         self.unions[key] = union
@@ -651,9 +714,9 @@ class CollisionChecker:
         return groups
 
     def _union_bodies(self) -> list[Body]:
-        """One body per member set of :meth:`_pair_groups`: the members' sphere-tree leaves in
-        the frame of the first member's link, under one tree (cached per robot by the members'
-        relative poses, which the joints outside the group set)."""
+        """One body per member set of :meth:`_pair_groups`, in the frame of the first member's
+        link (see :func:`_union_tree`; cached per robot by the members' relative poses, which
+        the joints outside the group set: a gripper's opening)."""
         if not self._unions:
             return []
         robot = self.robot
@@ -661,6 +724,7 @@ class CollisionChecker:
         T_link = link_poses(robot, self.base_positions)
         out = []
         self._union_bits: list[NDArray[np.int64]] = []
+        self._union_keys: list[tuple[Any, ...]] = []
         for members in self._unions:
             rep = self.bodies[members[0]].link
             T_rep_world = invert_transform(T_link[robot.link_index(rep)])
@@ -671,27 +735,12 @@ class CollisionChecker:
                 parts.append((b.name, np.round(T, 12)))
             key = ("union", tuple((n, T.tobytes()) for n, T in parts))
             if key not in cache.unions:
-                leaves: list[NDArray[np.float64]] = []
-                inner: list[NDArray[np.float64]] = []
-                for (_, T), m in zip(parts, members, strict=True):
-                    t = self.bodies[m].spheres
-                    for S, into in ((t.leaves, leaves), (t.inner, inner)):
-                        into.append(np.c_[S[:, :3] @ T[:3, :3].T + T[:3, 3], S[:, 3]])
-                nodes, left, right, leaf_of = build_tree(np.vstack(leaves))
-                no_tris = np.zeros(len(nodes) + 1, np.int64)
-                # inner spheres: the biggest of the members' (each inside a member's solid)
-                core = prune_inner(np.vstack(inner), UNION_INNER)
-                tree = SphereTree(nodes, left, right, core, tri_start=no_tris)
-                # each node's members, as bits (children come after their parent)
-                owner = np.repeat(np.arange(len(leaves)), [len(x) for x in leaves])
-                bits = np.zeros(len(nodes), np.int64)
-                is_leaf = leaf_of >= 0
-                bits[is_leaf] = np.left_shift(1, owner[leaf_of[is_leaf]])
-                for n in range(len(nodes) - 1, -1, -1):
-                    if left[n] >= 0:
-                        bits[n] = bits[left[n]] | bits[right[n]]
-                cache.keep_union(key, (tree, bits))
+                cache.keep_union(
+                    key,
+                    _union_tree([self.bodies[m].spheres for m in members], [T for _, T in parts]),
+                )
             tree, bits = cache.unions[key]
+            self._union_keys.append(key)
             out.append(Body(f"<cluster of {rep}>", rep, np.eye(4), tree, True, []))
             self._union_bits.append(bits)
         return out
@@ -710,11 +759,8 @@ class CollisionChecker:
             [T_anchor_link[robot.link_index(b.link)] @ b.T_link_body for b in bodies]
         ).reshape(-1, 4, 4)
         n_robot = len(robot_spheres(robot))
-        # the robot's links are packed once per robot; held objects are appended
-        packed = _robot_pack(robot, tuple(b.name for b in bodies[:n_robot]))
-        if len(bodies) > n_robot:
-            packed = _merge(packed, pack_bodies(bodies[n_robot:]))
-        self._packed = packed
+        names = tuple(b.name for b in bodies[:n_robot])
+        robot_packed = _robot_pack(robot, names)  # packed once per robot
         obs = self.obstacles
         self._obs_kind = np.array([o.kind for o in obs], dtype=np.int64)
         self._obs_T = np.array([o.T_scene_shape for o in obs]).reshape(-1, 4, 4)
@@ -722,23 +768,43 @@ class CollisionChecker:
         self._obs_sphere = np.array([_bounding_sphere(o) for o in obs]).reshape(-1, 4)
         self._obs_inner_ok = np.array([o.exact_inner for o in obs], dtype=np.bool_)
 
-        self._world_pairs = np.array(self.world_pairs, dtype=np.int64).reshape(-1, 2)
-        self._self_pairs = np.array(self.self_pairs, dtype=np.int64).reshape(-1, 2)
         self._pair_field = np.array(
             [field_side(bodies[i], bodies[j]) for i, j in self.self_pairs], dtype=np.int64
         )
-        self._tables = self._pair_tables(packed if len(bodies) == n_robot else None, n_robot)
-        # the clusters' union bodies come after every real body (no pair names them)
+        self._tables = self._pair_tables(robot_packed, n_robot)
+        # the kernel's bodies: the robot's links, the rigid clusters' union bodies (no pair
+        # names them), then held objects. Links and unions are packed together once per
+        # gripper opening (a checker is built for each candidate grasp and place: merging the
+        # link arrays each time cost 10 ms of a 13 ms build)
         unions = self._union_bodies()
-        body_link, body_T = link_idx, self._body_T
-        if unions:
-            packed = _merge(packed, pack_bodies(unions))
-            ui = [robot.link_index(u.link) for u in unions]
-            body_link = np.concatenate([link_idx, anchor[ui]])
-            body_T = np.concatenate([body_T, T_anchor_link[ui]])
+        n_u = len(unions)
+        kmap = np.arange(len(bodies))
+        kmap[n_robot:] += n_u
+        ui = [robot.link_index(u.link) for u in unions]
+        packed = robot_packed
+        extra = unions + bodies[n_robot:]
+        if extra:
+            # held objects by their shapes and where they are held (place candidates are
+            # checked one checker each, all holding the same object)
+            held = tuple(
+                (b.name, b.link, np.round(b.T_link_body, 12).tobytes(), _shapes_key(b.shapes))
+                for b in bodies[n_robot:]
+            )
+            cache = _TABLES.setdefault(robot, _RobotTables())
+            key = (names, tuple(self._union_keys), held)
+            if key not in cache.merged:
+                cache.keep_merged(key, _merge(robot_packed, pack_bodies(extra)))
+            packed = cache.merged[key]
+        body_link = np.concatenate([link_idx[:n_robot], anchor[ui], link_idx[n_robot:]])
+        body_T = np.concatenate(
+            [self._body_T[:n_robot], T_anchor_link[ui].reshape(-1, 4, 4), self._body_T[n_robot:]]
+        )
+        world = np.array(self.world_pairs, dtype=np.int64).reshape(-1, 2)
+        self._world_pairs = np.c_[kmap[world[:, 0]], world[:, 1]].reshape(-1, 2)
+        self._self_pairs = kmap[np.array(self.self_pairs, dtype=np.int64).reshape(-1, 2)]
         node_members = np.zeros(len(packed.nodes), np.int64)
         for i, bits in enumerate(self._union_bits if unions else []):
-            r = int(packed.body_root[len(bodies) + i])
+            r = int(packed.body_root[n_robot + i])
             node_members[r : r + len(bits)] = bits
         pair_bit = np.full(len(self.self_pairs), -1, np.int64)
         for g in self._groups:
@@ -751,7 +817,7 @@ class CollisionChecker:
         world_group_count = np.zeros(len(self._world_groups), np.int64)
         for gi, g in enumerate(self._world_groups):
             world_group_start[g.pairs[0]] = gi
-            world_group_union[gi] = len(bodies) + g.union
+            world_group_union[gi] = n_robot + g.union
             world_group_count[gi] = len(g.pairs)
         n_groups = len(self._groups)
         group_start = np.full(len(self.self_pairs), -1, np.int64)
@@ -759,7 +825,7 @@ class CollisionChecker:
         group_count = np.zeros(n_groups, np.int64)
         for gi, g in enumerate(self._groups):
             group_start[g.pairs[0]] = gi
-            group_bodies[gi] = (g.body, len(bodies) + g.union)
+            group_bodies[gi] = (kmap[g.body], n_robot + g.union)
             group_count[gi] = len(g.pairs)
         args = tree_args(robot)
         self._args = args
