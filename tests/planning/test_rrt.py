@@ -63,3 +63,37 @@ def test_compiled_shortcut_stops_at_its_budget(walled):
     shortcut_compiled(few, path, np.random.default_rng(0), 1e18, budget=0)
     shortcut_compiled(many, path, rng, 1e18, budget=5000)
     assert few.stats.states < many.stats.states
+
+
+def test_repair_steps_around_an_obstacle_the_coarse_check_stepped_over(irb120):
+    """A segment checked free at 0.05 rad can clip a small obstacle between two checked
+    states; the planner's repair finds a way around it at the validation resolution (here, a
+    detour through one waypoint near the segment's middle)."""
+    from robocell.kinematics import fk
+    from robocell.planning import Planner
+
+    arm = irb120.group("arm")
+    a = np.array([-0.6, 0.2, 0.1, 0.0, 0.9, 0.0])
+    b = np.array([0.6, 0.2, 0.1, 0.0, 0.9, 0.0])
+    coarse, fine = Edges(None, 0.05), Edges(None, 0.01)
+    qs_fine = fine.states(a, b)
+    # a 2 mm ball between the open fingers: the pads sweep through it between coarse states
+    for k in range(len(qs_fine) // 2, len(qs_fine) // 2 + 5):
+        scene = PlanningScene(irb120)
+        T = fk(arm, qs_fine[k], "tcp")
+        scene.add_sphere("pin", Pose.from_matrix(T), 0.002)
+        checker = scene.checker(arm)
+        if not checker.check(coarse.states(a, b)).any() and checker.check(qs_fine).any():
+            break
+    else:
+        pytest.fail("no ball position that only the fine check sees")
+    planner = Planner(scene)
+    via = planner._detour(Edges(checker, 0.01), a, b, arm, np.random.default_rng(0))
+    assert via is not None
+    for p, q in ((a, via), (via, b)):
+        assert not checker.check_exact(Edges(None, 0.005).states(p, q, include_start=True)).any()
+    repaired = planner._repair(checker, np.array([a, b]), arm, np.random.default_rng(0), 1e18)
+    assert repaired is not None and len(repaired) >= 3
+    assert np.array_equal(repaired[0], a) and np.array_equal(repaired[-1], b)
+    for p, q in zip(repaired[:-1], repaired[1:], strict=True):
+        assert not checker.check_exact(Edges(None, 0.005).states(p, q, include_start=True)).any()

@@ -361,18 +361,43 @@ class Planner:
         deadline: float,
     ) -> NDArray[np.float64] | None:
         """``path`` with each segment that collides at the validation resolution replaced by a
-        path searched between its ends at that resolution; None if one cannot be."""
+        path between its ends at that resolution: a detour through one waypoint near the
+        segment's middle if one is found, else a search; None if neither succeeds."""
         fine = Edges(checker, self.config.validation_resolution)
         out = [path[0]]
         for a, b in zip(path[:-1], path[1:], strict=True):
             if fine.free(a, b):
                 out.append(b)
                 continue
+            via = self._detour(fine, a, b, group, rng)
+            if via is not None:
+                out.extend([via, b])
+                continue
             sub = self._solve("", fine, a, b[None, :], group, rng, deadline)
             if sub is None:
                 return None
             out.extend(self._shortcut(fine, sub, rng, deadline, fine.stats.states)[1:])
         return np.array(out)
+
+    def _detour(
+        self,
+        fine: Edges,
+        a: NDArray[np.float64],
+        b: NDArray[np.float64],
+        group: JointGroup,
+        rng: np.random.Generator,
+        tries: int = 24,
+    ) -> NDArray[np.float64] | None:
+        """A waypoint near the middle of a → b through which both halves are free at the
+        fine resolution, or None. A segment the search found free at its coarser resolution
+        usually clips an obstacle between two checked states only: a small step aside clears
+        it, for a few checks instead of a search (radii from 0.02 to 0.4 rad)."""
+        mid = 0.5 * (a + b)
+        for radius in np.geomspace(0.02, 0.4, tries):
+            via = np.clip(mid + rng.uniform(-radius, radius, group.dof), group.lower, group.upper)
+            if fine.free(a, via) and fine.free(via, b):
+                return via
+        return None
 
     def _validate(
         self,
