@@ -146,3 +146,23 @@ def test_bad_targets(irb120):
         solve_ik(arm, np.eye(3))
     with pytest.raises(ModelError, match="IK seed"):
         solve_ik(arm, Pose((0.4, 0, 0.4)), seed=[0, 0])
+
+
+def test_solvers_do_not_keep_their_robots_alive():
+    """IK solvers are cached on their robot: a process that loads robot after robot (a cell
+    per layout) does not keep them all, with their collision models."""
+    import gc
+    import weakref
+
+    from robocell import RobotModel
+    from robocell.kinematics import fk, solve_ik
+
+    loaded = []
+    for _ in range(10):
+        robot = RobotModel.load("irb120_robotiq85")
+        arm = robot.group("arm")
+        assert solve_ik(arm, fk(arm, arm.named("home"))).success
+        loaded.append(weakref.ref(robot))
+    del robot, arm
+    gc.collect()
+    assert sum(r() is not None for r in loaded) <= 4  # what the per-robot caches may keep

@@ -48,7 +48,7 @@ class _TreeArgs:
         return self._subsets[key]
 
 
-@lru_cache(maxsize=64)
+@lru_cache(maxsize=4)
 def tree_args(robot: RobotModel) -> _TreeArgs:
     return _TreeArgs(robot)
 

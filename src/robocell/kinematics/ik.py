@@ -293,9 +293,6 @@ class NumericIK:
         return IKResult(sols, self.name, reason, attempts)
 
 
-_SOLVER_CACHE: dict[tuple[int, str, str], Any] = {}
-
-
 def ik_solver(group: JointGroup, tip_link: str | None = None) -> AnalyticIK | NumericIK:
     """The solver that fits the group: the analytic one its robot's kinematics config names
     (kinematics.yaml: ``<group>: {solver: opw|ur, parameters: {...}}``) for its tip, else
@@ -304,16 +301,19 @@ def ik_solver(group: JointGroup, tip_link: str | None = None) -> AnalyticIK | Nu
     if robot is None:
         raise ModelError(f"group {group.name!r} is not attached to a robot model")
     tip = tip_link or group.tip_link
-    key = (id(robot), group.name, tip)
-    if key not in _SOLVER_CACHE:
+    key = (group.name, tip)
+    # kept on the robot, so that they go with it (a module-level cache keyed by the robot kept
+    # every robot a process loaded alive, with its collision model: 80 MB per sorting layout)
+    solvers: dict[tuple[str, str], Any] = vars(robot).setdefault("_ik_solvers", {})
+    if key not in solvers:
         cfg = robot.kinematics_config.get(group.name)
         solver: AnalyticIK | NumericIK
         if cfg and cfg.get("solver") in ("opw", "ur"):
             solver = AnalyticIK(group, A.parameters_from_config(cfg), tip)
         else:
             solver = NumericIK(group, tip)
-        _SOLVER_CACHE[key] = solver
-    return _SOLVER_CACHE[key]  # type: ignore[no-any-return]
+        solvers[key] = solver
+    return solvers[key]  # type: ignore[no-any-return]
 
 
 class _Checker(Protocol):

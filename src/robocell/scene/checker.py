@@ -51,7 +51,7 @@ CHUNK = 64  # states per kernel task; a batch of at most one chunk runs in the c
 UNION_INNER = 32  # inner spheres of a rigid cluster's union body (the first pass's hit test)
 
 
-@lru_cache(maxsize=16)
+@lru_cache(maxsize=4)
 def robot_spheres(robot: RobotModel) -> dict[str, SphereTree]:
     """The sphere tree of every link with collision geometry, in the link's frame."""
     by_link: dict[str, list[tuple[Shape, NDArray[np.float64]]]] = {}
@@ -60,7 +60,7 @@ def robot_spheres(robot: RobotModel) -> dict[str, SphereTree]:
     return {link: body_tree(shapes) for link, shapes in by_link.items()}
 
 
-@lru_cache(maxsize=16)
+@lru_cache(maxsize=4)
 def robot_grids(robot: RobotModel) -> dict[str, DistanceGrid]:
     """The distance grid of every link whose collision geometry has a mesh (links made of
     primitives only have exact distances instead)."""
@@ -333,7 +333,7 @@ def _merge(a: Packed, b: Packed) -> Packed:
     )
 
 
-@lru_cache(maxsize=16)
+@lru_cache(maxsize=4)
 def _robot_pack(robot: RobotModel, names: tuple[str, ...]) -> Packed:
     """The packed links of a robot (the same for every checker of it)."""
     spheres, grids = robot_spheres(robot), robot_grids(robot)
@@ -491,21 +491,15 @@ class _RobotTables:
     chains: dict[tuple[Any, ...], Chain | None] = field(default_factory=dict)
     tables: dict[tuple[Any, ...], PairTable] = field(default_factory=dict)
     packed: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = field(default_factory=dict)
-    merged: dict[tuple[Any, ...], Packed] = field(default_factory=dict)
     unions: dict[tuple[Any, ...], tuple[SphereTree, NDArray[np.int64]]] = field(
         default_factory=dict
     )
 
     KEEP = 16
 
-    def keep_merged(self, key: tuple[Any, ...], packed: Packed) -> None:
-        self.merged[key] = packed
-        while len(self.merged) > 4:  # each holds a copy of the links' arrays (tens of MB)
-            self.merged.pop(next(iter(self.merged)))
-
     def keep_union(self, key: tuple[Any, ...], union: tuple[SphereTree, NDArray[np.int64]]) -> None:
         self.unions[key] = union
-        while len(self.unions) > self.KEEP:
+        while len(self.unions) > 8:
             self.unions.pop(next(iter(self.unions)))
 
     def keep(self, key: tuple[Any, ...], arrays: tuple[NDArray[Any], ...]) -> None:
@@ -517,6 +511,10 @@ class _RobotTables:
 
 
 _TABLES: weakref.WeakKeyDictionary[RobotModel, _RobotTables] = weakref.WeakKeyDictionary()
+# the kernel's packed bodies (links, cluster unions, held objects) of the last few checkers,
+# across robots: a checker is built per candidate grasp or place, mostly for the same opening
+# and held object (merging 25 MB of link arrays each time cost more than the rest of a build)
+_MERGED: dict[tuple[Any, ...], tuple[Packed, Packed]] = {}
 
 
 _EPOCH = [0]
@@ -790,11 +788,15 @@ class CollisionChecker:
                 (b.name, b.link, np.round(b.T_link_body, 12).tobytes(), _shapes_key(b.shapes))
                 for b in bodies[n_robot:]
             )
-            cache = _TABLES.setdefault(robot, _RobotTables())
-            key = (names, tuple(self._union_keys), held)
-            if key not in cache.merged:
-                cache.keep_merged(key, _merge(robot_packed, pack_bodies(extra)))
-            packed = cache.merged[key]
+            key = (id(robot_packed), names, tuple(self._union_keys), held)
+            hit = _MERGED.get(key)
+            if hit is None:
+                # the entry keeps robot_packed alive, so its id names it while the entry exists
+                hit = (robot_packed, _merge(robot_packed, pack_bodies(extra)))
+                _MERGED[key] = hit
+                while len(_MERGED) > 3:  # each holds a copy of a robot's arrays (tens of MB)
+                    _MERGED.pop(next(iter(_MERGED)))
+            packed = hit[1]
         body_link = np.concatenate([link_idx[:n_robot], anchor[ui], link_idx[n_robot:]])
         body_T = np.concatenate(
             [self._body_T[:n_robot], T_anchor_link[ui].reshape(-1, 4, 4), self._body_T[n_robot:]]
