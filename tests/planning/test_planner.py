@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from robocell import PlanningScene, Pose
+from robocell import Pose
 from robocell.errors import ModelError, PlanningError
 from robocell.kinematics import fk
 from robocell.planning import (
@@ -18,18 +18,7 @@ from robocell.planning import (
 from robocell.scene.moveit_yaml import load_request, load_scene
 from robocell.trajectory import BlendedPath
 from tests.conftest import mbm_dir
-
-START = np.array([-1.2, 0.3, 0.2, 0.0, 0.8, 0.0])
-GOAL = np.array([1.2, 0.3, 0.2, 0.0, 0.8, 0.0])
-
-
-@pytest.fixture
-def walled(irb120):
-    """The IRB 120 with a wall between START and GOAL (the straight joint path crosses it)."""
-    scene = PlanningScene(irb120)
-    scene.add_box("wall", Pose([0.4, 0.0, 0.35]), [0.5, 0.04, 0.5])
-    scene.add_box("floor", Pose([0, 0, -0.02]), [2.0, 2.0, 0.02])
-    return scene
+from tests.planning.conftest import GOAL, START
 
 
 def _assert_valid(scene, group, plan, resolution=0.005):

@@ -12,17 +12,7 @@ from robocell.planning.rrt import (
     shortcut_compiled,
     warm_up,
 )
-
-START = np.array([-1.2, 0.3, 0.2, 0.0, 0.8, 0.0])
-GOAL = np.array([1.2, 0.3, 0.2, 0.0, 0.8, 0.0])
-
-
-@pytest.fixture
-def walled(irb120):
-    scene = PlanningScene(irb120)
-    scene.add_box("wall", Pose([0.4, 0.0, 0.35]), [0.5, 0.04, 0.5])
-    scene.add_box("floor", Pose([0, 0, -0.02]), [2.0, 2.0, 0.02])
-    return scene
+from tests.planning.conftest import GOAL, START
 
 
 def _length(path):

@@ -876,7 +876,7 @@ class CollisionChecker:
         )
         assert len(self._model) == len(K.MODEL_FIELDS)
 
-    def _pair_tables(self, packed: Packed | None, n_robot: int) -> tuple[NDArray[Any], ...]:
+    def _pair_tables(self, packed: Packed, n_robot: int) -> tuple[NDArray[Any], ...]:
         """The kernel's pair tables (see :mod:`robocell.scene.pair_tables`): pair_table (a
         table per self pair, or −1), table_vars, table_n, table_off, table_values."""
         robot = self.robot
@@ -905,8 +905,6 @@ class CollisionChecker:
         out_key = (len(self.self_pairs), tuple((k, key) for k, _, _, _, key in wanted))
         if out_key in cache.packed:
             return cache.packed[out_key]
-        if packed is None:
-            packed = _robot_pack(robot, tuple(b.name for b in self.bodies[:n_robot]))
         index = np.full(len(self.self_pairs), -1, np.int64)
         tables: list[PairTable] = []
         for k, chain, f, d, key in wanted:

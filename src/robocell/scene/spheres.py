@@ -331,7 +331,7 @@ def winding_and_distance(P, tri):  # type: ignore[no-untyped-def]
     return wn, dist
 
 
-def prune_inner(S: NDArray[np.float64], max_inner: int) -> NDArray[np.float64]:
+def _prune_inner(S: NDArray[np.float64], max_inner: int) -> NDArray[np.float64]:
     """The biggest spheres first, each kept only if a quarter of it reaches outside the kept."""
     if len(S) == 0:
         return S.reshape(0, 4)
@@ -358,7 +358,7 @@ def mesh_inner(
     P = np.stack([x.reshape(-1) for x in np.meshgrid(*g, indexing="ij")], axis=1)
     wn, dist = winding_and_distance(np.ascontiguousarray(P), np.ascontiguousarray(V[F]))
     ok = (np.abs(wn) > 0.9) & (dist > 1e-3)  # inside (either orientation of the triangles)
-    return prune_inner(np.c_[P[ok], dist[ok] - 1e-6], max_inner)
+    return _prune_inner(np.c_[P[ok], dist[ok] - 1e-6], max_inner)
 
 
 # ---------------------------------------------------------------------------------- tree
@@ -458,7 +458,7 @@ def _shape_parts(shape: Shape, T: NDArray[np.float64], leaf_size: float) -> _Par
         tris = (V @ T[:3, :3].T + T[:3, 3])[F]
         return _Parts(move(leaves), start, ids, tris, move(inner), True)
     leaves, inside = primitive_leaves(shape, leaf_size * math.sqrt(3.0) / 2.0)
-    inner = prune_inner(leaves[inside], 24)
+    inner = _prune_inner(leaves[inside], 24)
     return _Parts(
         move(leaves),
         np.zeros(len(leaves) + 1, np.int64),
