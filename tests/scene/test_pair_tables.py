@@ -1,6 +1,7 @@
-"""Self-collision tables of link pairs one or two joints apart: which pairs get one, and that a
-cell called FREE or HIT is so for coal everywhere in it, including at its corners next to the
-cells the table leaves to the kernel."""
+"""Self-collision tables of link pairs one or two joints apart, and of a link against a rigid
+cluster (a hand) up to three joints below it: which get one, and that a cell called FREE or HIT
+is so for coal everywhere in it, including at its corners next to the cells the table leaves
+to the kernel."""
 
 import numpy as np
 import pytest
@@ -23,6 +24,11 @@ def test_chains_of_the_ur5(mbm_ur5):
     assert chain is not None and [names[v] for v in chain.variables] == ["wrist_3_joint"]
     # three joints apart, or joined only through a common ancestor: no table
     assert table_chain(mbm_ur5, "base_link", "forearm_link", moving) is None
+    # unless three are allowed (a link against a hand)
+    chain = table_chain(mbm_ur5, "forearm_link", "wrist_3_link", moving, max_joints=3)
+    assert chain is not None
+    assert [names[v] for v in chain.variables] == ["wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
+    assert table_chain(mbm_ur5, "upper_arm_link", "wrist_3_link", moving, max_joints=3) is None
     assert (
         table_chain(mbm_ur5, "robotiq_85_left_finger_link", "robotiq_85_right_finger_link", moving)
         is None
@@ -36,15 +42,20 @@ def test_chains_of_the_ur5(mbm_ur5):
 
 
 def _tables(checker):
-    """(pair, PairTable) of every self pair that has one."""
-    index = checker._tables[0]
+    """(pairs, variables, n, offset, size) of every table: a self pair's, or a pair group's
+    (a body against the members of a rigid cluster: the table is over all its pairs)."""
+    index, variables, cells, offsets = checker._tables[:4]
+    owners = [([pair], index[k]) for k, pair in enumerate(checker.self_pairs)]
+    owners += [
+        ([checker.self_pairs[k] for k in g.pairs], checker._tables[5][gi])
+        for gi, g in enumerate(checker._groups)
+    ]
     out = []
-    for k, (i, j) in enumerate(checker.self_pairs):
-        if index[k] >= 0:
-            n_vars = int((checker._tables[1][index[k]] >= 0).sum())
-            off, n = checker._tables[3][index[k]], checker._tables[2][index[k]]
-            size = n**n_vars
-            out.append(((i, j), checker._tables[1][index[k]][:n_vars], n, off, size))
+    for pairs, t in owners:
+        if t >= 0:
+            n_vars = int((variables[t] >= 0).sum())
+            n = cells[t]
+            out.append((pairs, variables[t][:n_vars], n, offsets[t], n**n_vars))
     return out
 
 
@@ -59,7 +70,7 @@ def test_table_cells_agree_with_coal(robot, group_name, request):
     values = checker._tables[4]
     rng = np.random.default_rng(7)
     seen = {TABLE_FREE: 0, TABLE_HIT: 0}
-    for pair, variables, n, off, size in tables:
+    for pairs, variables, n, off, size in tables:
         cells = values[off : off + size].reshape((n,) * len(variables))
         # cells the table decides next to cells it leaves to the kernel: the margin's edge
         check = cells == TABLE_CHECK
@@ -80,9 +91,13 @@ def test_table_cells_agree_with_coal(robot, group_name, request):
             full[group.indices] = np.clip(group.random(rng, 1)[0], group.lower, group.upper)
             full[variables] = corner
             T = checker._link_poses(full)
-            assert checker._collide(T, pair, False) == (v == TABLE_HIT), (pair, ix, v)
+            hit = any(checker._collide(T, pair, False) for pair in pairs)
+            assert hit == (v == TABLE_HIT), (pairs, ix, v)
             seen[v] += 1
     assert seen[TABLE_FREE] > 50
+    # the UR5's forearm against its hand (12 pairs): one table over the three wrist angles
+    if robot == "mbm_ur5":
+        assert any(len(pairs) == 12 and len(v) == 3 for pairs, v, *_ in tables)
 
 
 def test_tables_match_the_exact_check_on_random_states(mbm_ur5):
@@ -96,11 +111,11 @@ def test_tables_match_the_exact_check_on_random_states(mbm_ur5):
     assert 0.05 < exact.mean() < 0.95
     base = checker.base_positions
     decided = []
-    for _pair, variables, n, off, _size in _tables(checker):
+    for _pairs, variables, n, off, _size in _tables(checker):
         full = np.tile(base, (len(qs), 1))
         full[:, group.indices] = qs
         x = full[:, variables] / (2 * np.pi)
         ix = np.minimum(((x - np.floor(x)) * n).astype(int), n - 1)
-        flat = ix[:, 0] if len(variables) == 1 else ix[:, 0] * n + ix[:, 1]
+        flat = np.ravel_multi_index(tuple(ix.T), (n,) * len(variables))
         decided.append(np.mean(checker._tables[4][off + flat] != TABLE_CHECK))
     assert np.mean(decided) > 0.85

@@ -963,6 +963,7 @@ MODEL_FIELDS = (
     "table_n",
     "table_off",
     "table_values",
+    "group_table",
     "group_start",
     "group_bodies",
     "group_count",
@@ -984,8 +985,10 @@ def _table_value(q, ti, table_vars, table_n, table_off, table_values):  # type: 
     n = table_n[ti]
     x = q[table_vars[ti, 0]] * INV_TWO_PI
     idx = min(int((x - math.floor(x)) * n), n - 1)
-    v = table_vars[ti, 1]
-    if v >= 0:
+    for c in range(1, 3):
+        v = table_vars[ti, c]
+        if v < 0:
+            break
         x = q[v] * INV_TWO_PI
         idx = idx * n + min(int((x - math.floor(x)) * n), n - 1)
     return table_values[table_off[ti] + idx]
@@ -1072,6 +1075,7 @@ def _classify_state(
         table_n,
         table_off,
         table_values,
+        group_table,
         group_start,
         group_bodies,
         group_count,
@@ -1194,6 +1198,16 @@ def _classify_state(
     while k < n_self:
         g = group_start[k]
         if g >= 0:
+            ti = group_table[g]
+            if ti >= 0:
+                v = _table_value(q, ti, table_vars, table_n, table_off, table_values)
+                if v == TABLE_FREE:
+                    for j in range(k, k + group_count[g]):
+                        status[j] = 1
+                    k += group_count[g]
+                    continue
+                if v == TABLE_HIT:
+                    return HIT
             x, u = group_bodies[g, 0], group_bodies[g, 1]
             rx, ru = body_root[x], body_root[u]
             _centre(rx, x, TB, nodes, W, stamp, cur)

@@ -33,7 +33,7 @@ from robocell.kinematics.fk import link_poses, tree_args
 from robocell.robot.model import JointGroup, RobotModel
 from robocell.scene import _kernels as K
 from robocell.scene.objects import AttachedObject
-from robocell.scene.pair_tables import Chain, PairTable, pair_table, table_chain
+from robocell.scene.pair_tables import Chain, Members, PairTable, pair_table, table_chain
 from robocell.scene.spheres import (
     DistanceGrid,
     SphereTree,
@@ -481,6 +481,24 @@ def _motion_signatures(
     return [memo[n] for n in links]
 
 
+def _rigid(robot: RobotModel, links: list[str], moving: frozenset[int]) -> bool:
+    """Whether no variable outside ``moving`` sits between any of ``links`` and the last
+    joint above it that ``moving`` has (a gripper's finger joint): links the same group joints
+    move then keep their relative poses whatever the other variables are."""
+    t = robot.tree
+    parent_joint = {int(c): j for j, c in enumerate(t.child_link)}
+    for name in links:
+        k = robot.link_index(name)
+        while k in parent_joint:
+            j = parent_joint[k]
+            if t.var[j] >= 0:
+                if int(t.var[j]) not in moving:
+                    return False
+                break
+            k = int(t.parent_link[j])
+    return True
+
+
 @dataclass
 class _RobotTables:
     """A robot's pair tables, kept per robot (the disk cache is keyed by a hash of the links'
@@ -769,7 +787,6 @@ class CollisionChecker:
         self._pair_field = np.array(
             [field_side(bodies[i], bodies[j]) for i, j in self.self_pairs], dtype=np.int64
         )
-        self._tables = self._pair_tables(robot_packed, n_robot)
         # the kernel's bodies: the robot's links, the rigid clusters' union bodies (no pair
         # names them), then held objects. Links and unions are packed together once per
         # gripper opening (a checker is built for each candidate grasp and place: merging the
@@ -797,6 +814,7 @@ class CollisionChecker:
                 while len(_MERGED) > 3:  # each holds a copy of a robot's arrays (tens of MB)
                     _MERGED.pop(next(iter(_MERGED)))
             packed = hit[1]
+        self._tables = self._pair_tables(packed, n_robot)
         body_link = np.concatenate([link_idx[:n_robot], anchor[ui], link_idx[n_robot:]])
         body_T = np.concatenate(
             [self._body_T[:n_robot], T_anchor_link[ui].reshape(-1, 4, 4), self._body_T[n_robot:]]
@@ -878,51 +896,73 @@ class CollisionChecker:
 
     def _pair_tables(self, packed: Packed, n_robot: int) -> tuple[NDArray[Any], ...]:
         """The kernel's pair tables (see :mod:`robocell.scene.pair_tables`): pair_table (a
-        table per self pair, or −1), table_vars, table_n, table_off, table_values."""
+        table per self pair, or −1), table_vars, table_n, table_off, table_values, and
+        group_table (a table per pair group, or −1). ``packed``: the links, then the union
+        bodies."""
         robot = self.robot
         cache = _TABLES.setdefault(robot, _RobotTables())
         moving = frozenset(int(i) for i in self.group.indices)
         base = self.base_positions
-        # which pairs have a table, and each table's key: the packed arrays are kept per
-        # such list (a checker is built per scene change; concatenating MBs of tables each
-        # time cost 40 % of building one, measured)
-        wanted: list[tuple[int, Chain, int, int, tuple[Any, ...]]] = []
+
+        def chain_of(a: str, b: str, max_joints: int) -> Chain | None:
+            ck = (a, b, moving, max_joints)
+            if ck not in cache.chains:
+                cache.chains[ck] = table_chain(robot, a, b, set(moving), max_joints)
+            return cache.chains[ck]
+
+        # which pairs and groups have a table, and each table's key: the packed arrays are
+        # kept per such list (a checker is built per scene change; concatenating MBs of tables
+        # each time cost 40 % of building one, measured)
+        wanted: list[tuple[int, Chain, int, int, tuple[Any, ...], Members]] = []
         for k, (i, j) in enumerate(self.self_pairs):
             if i >= n_robot or j >= n_robot:
                 continue
             a, b = self.bodies[i].name, self.bodies[j].name
-            ck = (a, b, moving)
-            if ck not in cache.chains:
-                cache.chains[ck] = table_chain(robot, a, b, set(moving))
-            chain = cache.chains[ck]
+            chain = chain_of(a, b, 2)
             if chain is None:
                 continue
             f, d = (i, j) if robot.link_index(a) == chain.upper else (j, i)
             if self.bodies[f].field_kind == K.FIELD_NONE:
                 continue
             key = (chain.upper, chain.lower, chain.variables, tuple(base[list(chain.fixed)]))
-            wanted.append((k, chain, f, d, key))
-        out_key = (len(self.self_pairs), tuple((k, key) for k, _, _, _, key in wanted))
+            wanted.append((k, chain, f, d, key, None))
+        n_pairs = len(self.self_pairs)
+        for gi, g in enumerate(self._groups):
+            # a body against a rigid cluster below it: a table over up to three angles, if the
+            # members keep their poses whatever the robot's other joints do (a hand that opens
+            # would need a table per opening)
+            x, members = self.bodies[g.body], self._unions[g.union]
+            rep = self.bodies[members[0]].link
+            if not _rigid(robot, [self.bodies[m].link for m in members], moving):
+                continue
+            chain = chain_of(x.name, rep, 3)
+            if chain is None or chain.upper != robot.link_index(x.name):
+                continue
+            parts = self._union_keys[g.union][1]
+            key = (chain.upper, chain.lower, chain.variables, tuple(base[list(chain.fixed)]))
+            wanted.append((n_pairs + gi, chain, g.body, n_robot + g.union, key + parts, parts))
+        out_key = (n_pairs, tuple((k, key) for k, _, _, _, key, _ in wanted))
         if out_key in cache.packed:
             return cache.packed[out_key]
-        index = np.full(len(self.self_pairs), -1, np.int64)
+        index = np.full(n_pairs + len(self._groups), -1, np.int64)
         tables: list[PairTable] = []
-        for k, chain, f, d, key in wanted:
+        for k, chain, f, d, key, parts in wanted:
             if key not in cache.tables:
-                cache.tables[key] = pair_table(robot, chain, base, f, d, packed)
+                cache.tables[key] = pair_table(robot, chain, base, f, d, packed, parts)
             index[k] = len(tables)
             tables.append(cache.tables[key])
         sizes = [len(t.values) for t in tables]
         out = (
-            index,
+            index[:n_pairs],
             np.array(
-                [list(t.variables) + [-1] * (2 - len(t.variables)) for t in tables], np.int64
-            ).reshape(-1, 2),
+                [list(t.variables) + [-1] * (3 - len(t.variables)) for t in tables], np.int64
+            ).reshape(-1, 3),
             np.array([t.n for t in tables], np.int64),
             np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
             if tables
             else np.zeros(0, np.int64),
             np.concatenate([t.values for t in tables]) if tables else np.zeros(1, np.uint8),
+            index[n_pairs:],
         )
         cache.keep(out_key, out)
         return out
