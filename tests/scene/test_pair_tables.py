@@ -27,7 +27,8 @@ def test_chains_of_the_ur5(mbm_ur5):
     # unless three are allowed (a link against a hand)
     chain = table_chain(mbm_ur5, "forearm_link", "wrist_3_link", moving, max_joints=3)
     assert chain is not None
-    assert [names[v] for v in chain.variables] == ["wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
+    wrist = ["wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
+    assert [names[v] for v in chain.variables] == wrist
     assert table_chain(mbm_ur5, "upper_arm_link", "wrist_3_link", moving, max_joints=3) is None
     assert (
         table_chain(mbm_ur5, "robotiq_85_left_finger_link", "robotiq_85_right_finger_link", moving)
