@@ -60,6 +60,19 @@ def _extent(shape: Shape, axis_obj: NDArray[np.float64]) -> float:
     raise GraspError(f"grasps are generated for boxes, cylinders and spheres, not {shape.kind}")
 
 
+def _retreat_direction(kind: str, approach: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Straight up from a grasp from above; up and back along the approach from a side grasp,
+    which is made at the edge of the arm's reach, where straight up can leave it (measured:
+    2 of 200 sorting layouts)."""
+    up = np.array([0.0, 0.0, 1.0])
+    back = -np.array([approach[0], approach[1], 0.0])
+    norm = float(np.linalg.norm(back))
+    if kind == "top" or norm < 1e-6:
+        return up
+    d = up + 0.6 * back / norm
+    return d / float(np.linalg.norm(d))
+
+
 def _half_height(shape: Shape) -> float:
     if isinstance(shape, Box):
         return 0.5 * shape.size[2]
@@ -122,7 +135,7 @@ def generate_grasps(
                 Pose.from_matrix(T_w_eef),
                 Pose.from_matrix(T_w_tcp),
                 GripperTranslation(tuple(approach), *approach_distance),  # type: ignore[arg-type]
-                GripperTranslation((0.0, 0.0, 1.0), *retreat_distance),
+                GripperTranslation(tuple(_retreat_direction(kind, approach)), *retreat_distance),  # type: ignore[arg-type]
                 gripper.open_command,
                 gripper.closed_command,
                 width,
@@ -385,6 +398,10 @@ def generate_pushes(
     leans = [(push_dir, u)]
     if abs(away @ push_dir) < math.cos(math.radians(5)):
         leans.append((away, np.cross(z_w, away)))
+    # each also turned half a turn about its approach (the closed fingers push alike): the
+    # wrist then starts half a turn away, clear of the joint limits a straight push can run
+    # into (measured: 6 of 200 layouts stopped at joint 4's or joint 6's limit)
+    leans += [(lean, -closing) for lean, closing in leans]
     for (lean, closing), tilt in itertools.product(leans, np.radians(tilts_deg)):
         approach = -math.cos(tilt) * z_w + math.sin(tilt) * lean
         R = _frame(approach, closing, gripper)
