@@ -38,46 +38,6 @@ def test_shortcut_keeps_the_ends_shortens_and_stays_free(walled, compiled):
     assert np.all(np.linalg.norm(np.diff(cut, axis=0), axis=1) > 1e-9)
 
 
-def test_raced_searches_keep_the_fewest_iterations_path(walled):
-    """Two searches racing on two threads: the kept path is the one of the search that needed
-    fewer iterations, whichever thread ran faster, so a seeded race gives the same path every
-    time; it is the path that search alone finds, and it is free."""
-    from robocell.planning import _kernels as PK
-
-    arm = walled.robot.group("arm")
-    checker = walled.checker(arm)
-    warm_up(checker)
-    paths, iterations = [], []
-    for _ in range(4):
-        edges = Edges(checker, 0.05)
-        paths.append(
-            rrt_connect_compiled(
-                edges, START, GOAL[None], arm.lower, arm.upper, np.random.default_rng(5), 1e18,
-                0.5, threads=2,
-            )
-        )  # fmt: skip
-        iterations.append(edges.stats.iterations)
-    assert all(p is not None and np.array_equal(p, paths[0]) for p in paths)
-    # each search alone, with the seed the race drew for it
-    seeds = np.random.default_rng(5).integers(2**31, size=2)
-    alone = []
-    model, scratch = checker.kernel_inputs()
-    from robocell.scene.checker import next_epoch
-
-    for seed in seeds:
-        path, status, stats = PK.rrt_connect(
-            START, GOAL[None], arm.lower, arm.upper, int(seed), 1e18, 0.05, 0.5, model,
-            scratch, next_epoch(1 << 40), 1 << 14, np.full(1, PK.NEVER, np.int64), 0,
-        )  # fmt: skip
-        assert status == PK.FOUND
-        alone.append((int(stats[0]), path))
-    best = min(range(2), key=lambda t: (alone[t][0], t))
-    assert np.array_equal(paths[0], alone[best][1])
-    edges = Edges(checker, 0.05)
-    for a, b in zip(paths[0][:-1], paths[0][1:], strict=True):
-        assert not checker.check(edges.states(a, b, include_start=True)).any()
-
-
 def test_compiled_shortcut_stops_at_its_budget(walled):
     """The random shortcuts check at most ``budget`` states (the greedy passes aside): a
     deterministic cap, whatever the machine's load."""

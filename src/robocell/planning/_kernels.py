@@ -89,23 +89,13 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, scratch, epoch, buf, stat
     return n
 
 
-NEVER = 1 << 62  # no iteration count: found_at of a search that has found nothing
-
-
-@njit(cache=True, nogil=True)
+@njit(cache=True)
 def rrt_connect(
-    start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, epoch, cap,
-    found_at, me,
+    start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, epoch, cap
 ):  # type: ignore[no-untyped-def]
     """A collision-free path (K, dof) from ``start`` to one of ``goals`` (G, dof) and a status
     (FOUND, NOT_FOUND when ``deadline`` (time.perf_counter) passed, FULL when a tree reached
-    ``cap`` nodes), with stats (iterations, nodes, epochs used, states checked).
-
-    Races: ``found_at`` (int64, one slot per search, NEVER until that search finds a path) is
-    shared by searches running at once (the GIL is released), ``me`` this one's slot. A search
-    records the iteration it found its path in, and stops as soon as it can no longer find one
-    in fewer iterations than another did (ties go to the lower slot): the winner, the search
-    that needed fewest iterations, does not depend on which thread ran faster."""
+    ``cap`` nodes), with stats (iterations, nodes, epochs used, states checked)."""
     np.random.seed(seed)  # noqa: NPY002 (numba's generator: the legacy API is what it compiles)
     dof = start.shape[0]
     stats = np.zeros(4, np.int64)  # iterations, nodes, epochs used, states checked
@@ -123,7 +113,6 @@ def rrt_connect(
             path = np.empty((2, dof))
             path[0] = start
             path[1] = goals[g]
-            found_at[me] = 0
             return path, FOUND, stats
     Qa = np.empty((cap, dof))
     Pa = np.empty(cap, np.int64)
@@ -145,12 +134,6 @@ def rrt_connect(
         if na >= cap - 1 or nb >= cap - 1:
             stats[1] = na + nb
             return empty, FULL, stats
-        # another search found a path in fewer iterations than this one can now
-        nxt = stats[0] + 1
-        for o in range(found_at.shape[0]):
-            if o != me and (nxt > found_at[o] or (nxt == found_at[o] and o < me)):
-                stats[1] = na + nb
-                return empty, NOT_FOUND, stats
         stats[0] += 1
         for j in range(dof):
             q_rand[j] = lower[j] + np.random.random() * (upper[j] - lower[j])  # noqa: NPY002
@@ -196,7 +179,6 @@ def rrt_connect(
                         path[s] = Qb[x]
                         x = Pb[x]
                     stats[1] = na + nb
-                    found_at[me] = stats[0]
                     if not a_is_start:
                         path = path[::-1].copy()
                     return path, FOUND, stats

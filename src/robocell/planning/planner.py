@@ -5,7 +5,6 @@ the path that will be executed at fine resolution and times it.
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass
 
@@ -54,9 +53,6 @@ class PlannerConfig:
     shortcut: bool = True
     compiled: bool = True  # the search compiled whole (numba); False: the Python search alone
     compiled_share: float = 0.8  # of the time budget; the Python search gets the rest
-    # compiled searches raced in parallel, one per thread (see rrt_connect_compiled: the
-    # result does not depend on which thread is faster); at most the machine's cores
-    search_threads: int = 2
     # the random shortcuts may check this share of the states the search checked, and at
     # least shortcut_min_states
     shortcut_share: float = 0.5
@@ -322,10 +318,7 @@ class Planner:
                 # which settles the states the kernel leaves unsure (near contact)
                 now = time.perf_counter()
                 soon = now + self.config.compiled_share * (deadline - now)
-                threads = min(self.config.search_threads, os.cpu_count() or 1)
-                path = rrt_connect_compiled(
-                    edges, start, goals, lo, hi, rng, soon, step, threads=threads
-                )
+                path = rrt_connect_compiled(edges, start, goals, lo, hi, rng, soon, step)
                 if path is not None or time.perf_counter() >= deadline:
                     return path
             return rrt_connect(edges, start, goals, lo, hi, rng, deadline, step)

@@ -10,10 +10,9 @@ first collision.
 from __future__ import annotations
 
 import math
-import threading
 import time
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -163,56 +162,32 @@ def rrt_connect_compiled(
     deadline: float,
     step: float = 0.8,
     cap: int = 1 << 14,
-    threads: int = 1,
 ) -> NDArray[np.float64] | None:
     """:func:`rrt_connect` compiled whole on the collision kernel (see
     :mod:`robocell.planning._kernels`): a path, or None when the deadline passed or a tree
     filled up. States the kernel leaves unsure block its edges; the caller may then search in
-    Python, which settles them.
-
-    ``threads`` > 1 races that many searches, each with its own seed drawn from ``rng``, one
-    per thread; the path of the one that needs fewest iterations is kept (the same whatever
-    the threads' speeds: a seeded plan stays reproducible). A search's time has a long tail
-    (a tree stuck behind an obstacle): the fastest of two is what a plan then costs."""
+    Python, which settles them."""
     from robocell.planning import _kernels as PK
     from robocell.scene.checker import next_epoch
 
     model, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
-    threads = max(1, min(threads, len(scratch[0])))  # a thread slot of scratch each
-    args = (
+    path, status, stats = PK.rrt_connect(
         np.ascontiguousarray(start, dtype=float),
         np.ascontiguousarray(goals, dtype=float),
         np.ascontiguousarray(lower, dtype=float),
         np.ascontiguousarray(upper, dtype=float),
+        int(rng.integers(2**31)),
+        deadline,
+        edges.resolution,
+        step,
+        model,
+        scratch,
+        next_epoch(1 << 40),
+        cap,
     )
-    seeds = [int(rng.integers(2**31)) for _ in range(threads)]
-    found_at = np.full(threads, PK.NEVER, np.int64)
-    results: list[Any] = [None] * threads
-
-    def search(t: int) -> None:
-        try:
-            results[t] = PK.rrt_connect(
-                *args, seeds[t], deadline, edges.resolution, step, model,
-                tuple(a[t:] for a in scratch), next_epoch(1 << 40), cap, found_at, t,
-            )  # fmt: skip
-        except BaseException as e:  # raised again in the calling thread
-            results[t] = e
-
-    others = [threading.Thread(target=search, args=(t,)) for t in range(1, threads)]
-    for th in others:
-        th.start()
-    search(0)
-    for th in others:
-        th.join()
-    for r in results:
-        if isinstance(r, BaseException):
-            raise r
-    won = min(range(threads), key=lambda t: (found_at[t], t))
-    for _, _, stats in results:
-        edges.stats.iterations += int(stats[0])
-        edges.stats.states += int(stats[3])
-    path, status, stats = results[won]
+    edges.stats.iterations += int(stats[0])
     edges.stats.nodes = int(stats[1])
+    edges.stats.states += int(stats[3])
     return path if status == PK.FOUND else None
 
 
@@ -259,7 +234,7 @@ def warm_up(checker: BatchChecker) -> None:
     model, scratch = checker.kernel_inputs()  # type: ignore[attr-defined]
     q = np.ascontiguousarray(model[1][model[0]], dtype=float)  # the current state
     PK.rrt_connect(q, q[None, :], q - 1, q + 1, 0, 0.0, 0.05, 1.0, model, scratch,
-                   next_epoch(1 << 20), 16, np.full(1, PK.NEVER, np.int64), 0)  # fmt: skip
+                   next_epoch(1 << 20), 16)  # fmt: skip
     PK.shortcut(np.array([q, q + 0.01]), 0, 0.0, 0.05, model, scratch, next_epoch(1 << 20), 1, 1)
     PK._clock()  # numba's object mode costs 50 ms on its first call (measured)
     _WARM[0] = True
