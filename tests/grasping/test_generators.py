@@ -96,3 +96,26 @@ def test_places_put_the_object_at_the_target(cell, gripper):
         assert p.pre_place_approach.direction == (0.0, 0.0, -1.0)
     with pytest.raises(GraspError, match="3 finite numbers"):
         generate_places("red_box", [0, np.nan, 0], g, T_obj)
+
+
+def test_straight_lines_near_the_wrist_singularity_stay_within_the_limits(irb120):
+    """A push's lines are followed by IK before the push is offered: near the wrist's
+    singularity a 3 cm sideways line turns joint 4 by about a radian, so from joint 4 at 2.6
+    rad (limit 2.79) one way leaves the limits and the other does not; the line's end
+    configuration puts the tool at the line's end."""
+    from robocell.grasping.generators import _line_ok
+
+    arm = irb120.group("arm")
+    q = np.array([0.0, 0.3, 0.2, 2.6, 0.05, 0.0])
+    T = fk(arm, q, "tool0")
+    assert _line_ok(arm, "tool0", T, q, np.array([0.0, 0.03, 0.0])) is None
+    end = _line_ok(arm, "tool0", T, q, np.array([0.0, -0.03, 0.0]))
+    assert end is not None and abs(end[3] - q[3]) > 0.5
+    assert np.all(end >= arm.lower) and np.all(end <= arm.upper)
+    T_end = fk(arm, end, "tool0")
+    assert np.allclose(T_end[:3, 3], T[:3, 3] + [0.0, -0.03, 0.0], atol=1e-6)
+    assert np.allclose(T_end[:3, :3], T[:3, :3], atol=1e-6)
+    # away from the singularity the same line barely turns the wrist
+    q0 = np.array([0.0, 0.3, 0.2, 0.0, 0.8, 0.0])
+    end0 = _line_ok(arm, "tool0", fk(arm, q0, "tool0"), q0, np.array([0.0, 0.03, 0.0]))
+    assert end0 is not None and abs(end0[3] - q0[3]) < 0.3

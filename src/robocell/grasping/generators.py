@@ -455,7 +455,11 @@ def _reachable_pushes(
 ) -> list[Push]:
     """The pushes whose start, start before the descent and end the arm reaches without
     collision, with the gripper closed (the pushed object is checked too: the fingers start
-    clear of it), each with its IK solution at the start."""
+    clear of it), each with an IK solution at the start from which its three straight lines
+    (the descent, the push and the lift after it) stay within the joint limits: the solution
+    nearest the current state if it does, else the nearest one that does (near the wrist's
+    singularity a 4 cm line can turn joints 4 and 6 by a radian; measured: 6 of 200 sorting
+    layouts stopped at their limits)."""
     work = scene.copy()
     work.set_joint_positions(gripper.group, [gripper.closed_command])
     if object_id in work.world_objects:
@@ -471,14 +475,81 @@ def _reachable_pushes(
         targets += [T_base_world @ start, T_base_world @ above, T_base_world @ end]
     found = _free_ik(work, group, gripper.eef_link, targets[0::3], seed)
     other = _free_ik(work, group, gripper.eef_link, targets[1::3], seed)
+    at_start = work.copy()
     # at the end the gripper is where the object was (it has moved on): not a collision
     work.allow_collision(object_id, work.robot.link_names)
     ends = _free_ik(work, group, gripper.eef_link, targets[2::3], seed)
-    return [
-        Push(**{**p.__dict__, "joint_positions": q})  # type: ignore[arg-type]
-        for p, q, a, e in zip(pushes, found, other, ends, strict=True)
-        if q is not None and a is not None and e is not None
-    ]
+    checker = None
+    out = []
+    R_bw = T_base_world[:3, :3]
+    for p, q, a, e in zip(pushes, found, other, ends, strict=True):
+        if q is None or a is None or e is None:
+            continue
+        start = T_base_world @ p.pose.matrix()
+        back = -np.array([p.push.direction[0], p.push.direction[1], 0.0])
+        back /= max(float(np.linalg.norm(back)), 1e-9)
+        lift = np.array([0.0, 0.0, 1.0]) + 0.6 * back
+        lift *= p.descent / float(np.linalg.norm(lift))
+        up = R_bw @ np.array([0.0, 0.0, p.descent])
+        along = R_bw @ p.push.vector(p.push.min_distance)
+        candidates = [q]
+        if not _lines_ok(group, gripper.eef_link, start, q, up, along, R_bw @ lift):
+            if checker is None:
+                checker = at_start.checker(group)
+            sols = solve_ik(group, start, seed=q, tip_link=gripper.eef_link).solutions[1:]
+            candidates = [s for s, hit in zip(sols, checker.check(sols), strict=True) if not hit]
+            candidates = [
+                s
+                for s in candidates
+                if _lines_ok(group, gripper.eef_link, start, s, up, along, R_bw @ lift)
+            ][:1]
+        if candidates:
+            out.append(Push(**{**p.__dict__, "joint_positions": candidates[0]}))  # type: ignore[arg-type]
+    return out
+
+
+def _line_ok(
+    group: JointGroup,
+    tip_link: str,
+    T_start: NDArray[np.float64],
+    q: NDArray[np.float64],
+    offset: NDArray[np.float64],
+    step: float = 0.005,
+    max_jump: float = 0.3,
+) -> NDArray[np.float64] | None:
+    """The configuration at the end of the straight line from ``T_start`` (base frame, the
+    arm at q) by ``offset`` (base frame), following IK from step to step, or None when a
+    step leaves the joint limits or jumps (by more than ``max_jump`` rad)."""
+    n = max(1, int(math.ceil(float(np.linalg.norm(offset)) / step)))
+    for k in range(1, n + 1):
+        T = T_start.copy()
+        T[:3, 3] += offset * (k / n)
+        sols = solve_ik(group, T, seed=q, tip_link=tip_link).solutions
+        if len(sols) == 0 or float(np.max(np.abs(sols[0] - q))) > max_jump:
+            return None
+        q = sols[0]
+    return q
+
+
+def _lines_ok(
+    group: JointGroup,
+    tip_link: str,
+    T_start: NDArray[np.float64],
+    q: NDArray[np.float64],
+    up: NDArray[np.float64],
+    along: NDArray[np.float64],
+    lift: NDArray[np.float64],
+) -> bool:
+    """Whether a push's descent (checked upward from its start), push and lift stay within
+    the joint limits, the arm at q at the start."""
+    if _line_ok(group, tip_link, T_start, q, up) is None:
+        return False
+    end = _line_ok(group, tip_link, T_start, q, along)
+    if end is None:
+        return False
+    T_end = T_start.copy()
+    T_end[:3, 3] += along
+    return _line_ok(group, tip_link, T_end, end, lift) is not None
 
 
 def _analytic(group: JointGroup, tip_link: str) -> bool:
