@@ -220,11 +220,54 @@ def _reachable(
         T[:3, 3] -= g.pre_grasp_approach.vector(g.pre_grasp_approach.min_distance)
         pre.append(T_base_world @ T)
     found_pre = _free_ik(work, group, gripper.eef_link, pre, seed)
-    return [
-        Grasp(**{**g.__dict__, "joint_positions": q})  # type: ignore[arg-type]
-        for (g, q), p in zip(ok, found_pre, strict=True)
-        if p is not None
-    ]
+    R_bw = np.asarray(T_base_world[:3, :3], dtype=np.float64)
+    checker = None
+    out = []
+    for (g, q), p in zip(ok, found_pre, strict=True):
+        if p is None:
+            continue
+        # the approach and the retreat must stay within the joint limits from the grasp's
+        # solution: the nearest one if they do, else the nearest one from which they do
+        # (measured: candidates whose approach ran joint 3 or 4 into its limit cost the
+        # sorting demo a wasted move each, 3 for one ball)
+        T = T_base_world @ g.pose.matrix()
+        kept = _grasp_lines(group, gripper.eef_link, g, T, q, R_bw)
+        if kept is None:
+            if checker is None:
+                checker = work.checker(group)
+            sols = solve_ik(group, T, seed=q, tip_link=gripper.eef_link).solutions[1:]
+            for s, hit in zip(sols, checker.check(sols), strict=True):
+                kept = None if hit else _grasp_lines(group, gripper.eef_link, g, T, s, R_bw)
+                if kept is not None:
+                    q = s
+                    break
+        if kept is not None:
+            out.append(Grasp(**{**kept.__dict__, "joint_positions": q}))  # type: ignore[arg-type]
+    return out
+
+
+def _grasp_lines(
+    group: JointGroup,
+    tip_link: str,
+    g: Grasp,
+    T: NDArray[np.float64],
+    q: NDArray[np.float64],
+    R_bw: NDArray[np.float64],
+) -> Grasp | None:
+    """``g`` if its approach (at its desired distance, else at its minimum one: the grasp is
+    then returned with that as its desired distance) and its retreat (the minimum distance)
+    stay within the joint limits, the arm at q at the grasp pose T (base frame); else
+    None."""
+    r = g.post_grasp_retreat
+    if _line_ok(group, tip_link, T, q, R_bw @ r.vector(r.min_distance), 0.01) is None:
+        return None
+    a = g.pre_grasp_approach
+    for dist in dict.fromkeys((a.desired_distance, a.min_distance)):
+        if _line_ok(group, tip_link, T, q, -(R_bw @ a.vector(dist)), 0.01) is not None:
+            if dist == a.desired_distance:
+                return g
+            return replace(g, pre_grasp_approach=replace(a, desired_distance=dist))
+    return None
 
 
 def _free_ik(
