@@ -119,3 +119,28 @@ def test_straight_lines_near_the_wrist_singularity_stay_within_the_limits(irb120
     q0 = np.array([0.0, 0.3, 0.2, 0.0, 0.8, 0.0])
     end0 = _line_ok(arm, "tool0", fk(arm, q0, "tool0"), q0, np.array([0.0, 0.03, 0.0]))
     assert end0 is not None and abs(end0[3] - q0[3]) < 0.3
+
+
+@pytest.mark.parametrize("axis", [0, 1])
+def test_a_box_lying_on_its_side_gets_the_grasps_of_an_upright_one(gripper, axis):
+    """A box a push tipped over rests on another face: its grasps are those of an upright box
+    with its axes relabelled (same poses, widths and kinds)."""
+    import math
+
+    size = (0.03, 0.10, 0.04)
+    c = np.array([0.45, 0.1, 1.0])
+    # lying: rotated a quarter turn about its x (or y) axis
+    R = np.eye(3)
+    a, b = (1, 2) if axis == 0 else (2, 0)
+    R[a, a] = R[b, b] = 0.0
+    R[a, b], R[b, a] = -1.0, 1.0
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, c
+    lying = generate_grasps("b", Box(size), Pose.from_matrix(T), gripper)
+    assert lying
+    # the same box described upright: the size along the world's axes
+    world = np.abs(R) @ np.array(size)
+    upright = generate_grasps("b", Box(tuple(world)), Pose(c, (0, 0, 0, 1)), gripper)
+    key = lambda g: (g.kind, round(g.width, 5), tuple(np.round(g.pose.position, 5) + 0.0))  # noqa: E731
+    assert sorted(map(key, lying)) == sorted(map(key, upright))
+    assert math.isclose(max(g.quality for g in lying), max(g.quality for g in upright))

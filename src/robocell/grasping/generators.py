@@ -60,6 +60,29 @@ def _extent(shape: Shape, axis_obj: NDArray[np.float64]) -> float:
     raise GraspError(f"grasps are generated for boxes, cylinders and spheres, not {shape.kind}")
 
 
+def _upright(shape: Shape, T: NDArray[np.float64]) -> tuple[Shape, NDArray[np.float64]]:
+    """A box lying on any of its faces as an upright box: its axes relabelled (cyclically,
+    keeping the frame right-handed, two flipped if need be) so that its z is the axis nearest
+    the world's up, and its size to match (a box that a push tipped over is a box resting on
+    another face). Other shapes, and upright boxes, unchanged."""
+    if not isinstance(shape, Box):
+        return shape, T
+    return _upright_box(shape, T)
+
+
+def _upright_box(shape: Box, T: NDArray[np.float64]) -> tuple[Box, NDArray[np.float64]]:
+    """:func:`_upright` for a box."""
+    R = T[:3, :3]
+    k = int(np.argmax(np.abs(R[2])))
+    if k == 2 and R[2, 2] > 0:
+        return shape, T
+    i, j = (k + 1) % 3, (k + 2) % 3
+    flip = 1.0 if R[2, k] > 0 else -1.0
+    out = T.copy()
+    out[:3, :3] = np.column_stack([R[:, i], flip * R[:, j], flip * R[:, k]])
+    return Box((shape.size[i], shape.size[j], shape.size[k])), out
+
+
 def _retreat_direction(kind: str, approach: NDArray[np.float64]) -> NDArray[np.float64]:
     """Straight up from a grasp from above; up and back along the approach from a side grasp,
     which is made at the edge of the arm's reach, where straight up can leave it (measured:
@@ -103,7 +126,7 @@ def generate_grasps(
     solution."""
     if yaw_step_deg <= 0:
         raise GraspError(f"yaw_step_deg must be > 0, got {yaw_step_deg}")
-    T = T_world_object.matrix()
+    shape, T = _upright(shape, T_world_object.matrix())
     R_o, c_o = T[:3, :3], T[:3, 3]
     hz = _half_height(shape)
     bottom = c_o[2] - hz
@@ -400,9 +423,9 @@ def generate_pushes(
     if not distances or min(distances) <= 0 or clearance < 0:
         raise GraspError(f"need distances > 0 and clearance >= 0, got {distances}, {clearance}")
     group = scene.robot.group(arm)
-    T = T_world_object.matrix()
+    box, T = _upright_box(shape, T_world_object.matrix())
     R_o, c_o = T[:3, :3], T[:3, 3]
-    half = 0.5 * np.asarray(shape.size, dtype=float)
+    half = 0.5 * np.asarray(box.size, dtype=float)
     bottom = c_o[2] - half[2]
     base = scene.link_pose(group.base_link).position
     to_base = base[:2] - c_o[:2]
