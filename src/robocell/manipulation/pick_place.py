@@ -83,8 +83,8 @@ class Manipulator:
     ) -> None:
         self.cell = cell
         # acceleration scaling with an object held: lower it for a heavy or loosely held
-        # object (full accelerations: 1580 of 1600 objects sorted over 200 layouts, none
-        # dropped on the way; 0.5 cost 0.17 s per object)
+        # object (at full accelerations none of the 1600 objects of 200 sorting layouts fell
+        # on the way; 0.5 cost 0.17 s per object)
         self.carry_acceleration = carry_acceleration
         spec = cell.robot_spec
         if spec.gripper is None:
