@@ -31,6 +31,7 @@ from robocell.grasping.grasp import (
 )
 from robocell.kinematics.ik import NumericIK, ik_solver, solve_ik
 from robocell.robot.model import JointGroup
+from robocell.scene.checker import CollisionChecker
 from robocell.scene.planning_scene import PlanningScene
 
 BOX_FACE_MIN = math.cos(math.radians(2 * 10))  # side pinches of a box: within 10° of its faces
@@ -244,7 +245,7 @@ def _reachable(
         pre.append(T_base_world @ T)
     found_pre = _free_ik(work, group, gripper.eef_link, pre, seed)
     R_bw = np.asarray(T_base_world[:3, :3], dtype=np.float64)
-    checker = None
+    checker = work.checker(group)
     out = []
     for (g, q), p in zip(ok, found_pre, strict=True):
         if p is None:
@@ -254,13 +255,13 @@ def _reachable(
         # (measured: candidates whose approach ran joint 3 or 4 into its limit cost the
         # sorting demo a wasted move each, 3 for one ball)
         T = T_base_world @ g.pose.matrix()
-        kept = _grasp_lines(group, gripper.eef_link, g, T, q, R_bw)
+        kept = _grasp_lines(group, gripper.eef_link, g, T, q, R_bw, checker)
         if kept is None:
-            if checker is None:
-                checker = work.checker(group)
             sols = solve_ik(group, T, seed=q, tip_link=gripper.eef_link).solutions[1:]
             for s, hit in zip(sols, checker.check(sols), strict=True):
-                kept = None if hit else _grasp_lines(group, gripper.eef_link, g, T, s, R_bw)
+                kept = (
+                    None if hit else _grasp_lines(group, gripper.eef_link, g, T, s, R_bw, checker)
+                )
                 if kept is not None:
                     q = s
                     break
@@ -276,20 +277,30 @@ def _grasp_lines(
     T: NDArray[np.float64],
     q: NDArray[np.float64],
     R_bw: NDArray[np.float64],
+    checker: CollisionChecker,
 ) -> Grasp | None:
     """``g`` if its approach (at its desired distance, else at its minimum one: the grasp is
     then returned with that as its desired distance) and its retreat (the minimum distance)
-    stay within the joint limits, the arm at q at the grasp pose T (base frame); else
-    None."""
+    stay within the joint limits and clear of collisions (``checker``: the object may touch
+    the gripper), the arm at q at the grasp pose T (base frame); else None. (Measured: an
+    approach that met a neighbouring box at its first step was one layout's only grasp.)"""
     r = g.post_grasp_retreat
-    if _line_ok(group, tip_link, T, q, R_bw @ r.vector(r.min_distance), 0.01) is None:
+    retreat: list[NDArray[np.float64]] = []
+    if (
+        _line_ok(group, tip_link, T, q, R_bw @ r.vector(r.min_distance), 0.01, states=retreat)
+        is None
+    ):
         return None
     a = g.pre_grasp_approach
     for dist in dict.fromkeys((a.desired_distance, a.min_distance)):
-        if _line_ok(group, tip_link, T, q, -(R_bw @ a.vector(dist)), 0.01) is not None:
-            if dist == a.desired_distance:
-                return g
-            return replace(g, pre_grasp_approach=replace(a, desired_distance=dist))
+        approach: list[NDArray[np.float64]] = []
+        if _line_ok(group, tip_link, T, q, -(R_bw @ a.vector(dist)), 0.01, states=approach) is None:
+            continue
+        if checker.check(np.array(retreat + approach)).any():
+            continue
+        if dist == a.desired_distance:
+            return g
+        return replace(g, pre_grasp_approach=replace(a, desired_distance=dist))
     return None
 
 
@@ -582,10 +593,12 @@ def _line_ok(
     offset: NDArray[np.float64],
     step: float = 0.005,
     max_jump: float = 0.3,
+    states: list[NDArray[np.float64]] | None = None,
 ) -> NDArray[np.float64] | None:
     """The configuration at the end of the straight line from ``T_start`` (base frame, the
     arm at q) by ``offset`` (base frame), following IK from step to step, or None when a
-    step leaves the joint limits or jumps (by more than ``max_jump`` rad)."""
+    step leaves the joint limits or jumps (by more than ``max_jump`` rad). Each step's
+    configuration is appended to ``states`` if given."""
     n = max(1, int(math.ceil(float(np.linalg.norm(offset)) / step)))
     for k in range(1, n + 1):
         T = T_start.copy()
@@ -594,6 +607,8 @@ def _line_ok(
         if len(sols) == 0 or float(np.max(np.abs(sols[0] - q))) > max_jump:
             return None
         q = sols[0]
+        if states is not None:
+            states.append(q)
     return q
 
 
