@@ -121,10 +121,8 @@ def _key(
     put."""
     t = robot.tree
     dims = len(chain.variables)
-    h = hashlib.sha1(
-        f"pair table v{TABLE_VERSION} spheres v{SPHERE_MODEL_VERSION} {CELLS[dims]} {COARSE}"
-        .encode()
-    )
+    tag = f"pair table v{TABLE_VERSION} spheres v{SPHERE_MODEL_VERSION} {CELLS[dims]} {COARSE}"
+    h = hashlib.sha1(tag.encode())
     names = t.link_names
     lower = {names[chain.lower]: b""} if members is None else dict(members)
     for g in robot.collision_geometry:
@@ -313,7 +311,7 @@ def _cell_verdicts(  # type: ignore[no-untyped-def]
             joints, root, parent, child, origin, jtype, axis, var, mult, offset, upper, lower,
             f, d, body_root, nodes, left, right, inner_start, inner, node_rate, inner_rate,
             fields, T.shape[0],
-        )
+        )  # fmt: skip
     return out
 
 
@@ -322,7 +320,7 @@ def _cell_chunk(
     c0, c1, out, centres, half, variables, q_base, joints, root, parent, child, origin, jtype,
     axis, var, mult, offset, upper, lower, f, d, body_root, nodes, left, right, inner_start,
     inner, node_rate, inner_rate, fields, n_links,
-):  # type: ignore[no-untyped-def]
+):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`_cell_verdicts` of cells c0 … c1 − 1, into ``out``."""
     fk, go, gb, gh, gd, gf, gv, ps, pk, pt, pd = fields  # as K._field_bound takes them
     q = q_base.copy()
