@@ -14,7 +14,10 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -28,11 +31,14 @@ from robocell.grasping.grasp import (
     GripperTranslation,
     PlaceLocation,
     Push,
+    up_and_back,
 )
 from robocell.kinematics.ik import NumericIK, ik_solver, solve_ik
 from robocell.robot.model import JointGroup
 from robocell.scene.checker import CollisionChecker
 from robocell.scene.planning_scene import PlanningScene
+
+_R = TypeVar("_R")
 
 BOX_FACE_MIN = math.cos(math.radians(2 * 10))  # side pinches of a box: within 10° of its faces
 
@@ -88,13 +94,7 @@ def _retreat_direction(kind: str, approach: NDArray[np.float64]) -> NDArray[np.f
     """Straight up from a grasp from above; up and back along the approach from a side grasp,
     which is made at the edge of the arm's reach, where straight up can leave it (measured:
     2 of 200 sorting layouts)."""
-    up = np.array([0.0, 0.0, 1.0])
-    back = -np.array([approach[0], approach[1], 0.0])
-    norm = float(np.linalg.norm(back))
-    if kind == "top" or norm < 1e-6:
-        return up
-    d = up + 0.6 * back / norm
-    return d / float(np.linalg.norm(d))
+    return np.array([0.0, 0.0, 1.0]) if kind == "top" else up_and_back(approach)
 
 
 def _half_height(shape: Shape) -> float:
@@ -255,19 +255,36 @@ def _reachable(
         # (measured: candidates whose approach ran joint 3 or 4 into its limit cost the
         # sorting demo a wasted move each, 3 for one ball)
         T = T_base_world @ g.pose.matrix()
-        kept = _grasp_lines(group, gripper.eef_link, g, T, q, R_bw, checker)
-        if kept is None:
-            sols = solve_ik(group, T, seed=q, tip_link=gripper.eef_link).solutions[1:]
-            for s, hit in zip(sols, checker.check(sols), strict=True):
-                kept = (
-                    None if hit else _grasp_lines(group, gripper.eef_link, g, T, s, R_bw, checker)
-                )
-                if kept is not None:
-                    q = s
-                    break
-        if kept is not None:
+        lines = partial(_grasp_lines, group, gripper.eef_link, g, T, R_bw=R_bw, checker=checker)
+        chosen = _first_solution(group, gripper.eef_link, T, q, lambda: checker, lines)
+        if chosen is not None:
+            q, kept = chosen
             out.append(Grasp(**{**kept.__dict__, "joint_positions": q}))  # type: ignore[arg-type]
     return out
+
+
+def _first_solution(
+    group: JointGroup,
+    tip_link: str,
+    T: NDArray[np.float64],
+    q: NDArray[np.float64],
+    checker: Callable[[], CollisionChecker],
+    accept: Callable[[NDArray[np.float64]], _R | None],
+) -> tuple[NDArray[np.float64], _R] | None:
+    """(q, accept(q)) if that is truthy, else the same for the first other collision-free IK
+    solution at T (base frame; nearest q first) that ``accept`` takes, or None. ``checker``
+    is called only if the other solutions are needed."""
+    r = accept(q)
+    if r:
+        return q, r
+    sols = solve_ik(group, T, seed=q, tip_link=tip_link).solutions[1:]
+    if len(sols) == 0:
+        return None
+    for s, hit in zip(sols, checker().check(sols), strict=True):
+        r = None if hit else accept(s)
+        if r:
+            return s, r
+    return None
 
 
 def _grasp_lines(
@@ -556,32 +573,31 @@ def _reachable_pushes(
     # at the end the gripper is where the object was (it has moved on): not a collision
     work.allow_collision(object_id, work.robot.link_names)
     ends = _free_ik(work, group, gripper.eef_link, targets[2::3], seed)
-    checker = None
+    start_checker: list[CollisionChecker] = []  # built if a push needs another solution
+
+    def checker() -> CollisionChecker:
+        if not start_checker:
+            start_checker.append(at_start.checker(group))
+        return start_checker[0]
+
     out = []
     R_bw = T_base_world[:3, :3]
     for p, q, a, e in zip(pushes, found, other, ends, strict=True):
         if q is None or a is None or e is None:
             continue
         start = T_base_world @ p.pose.matrix()
-        back = -np.array([p.push.direction[0], p.push.direction[1], 0.0])
-        back /= max(float(np.linalg.norm(back)), 1e-9)
-        lift = np.array([0.0, 0.0, 1.0]) + 0.6 * back
-        lift *= p.descent / float(np.linalg.norm(lift))
-        up = R_bw @ np.array([0.0, 0.0, p.descent])
-        along = R_bw @ p.push.vector(p.push.min_distance)
-        candidates = [q]
-        if not _lines_ok(group, gripper.eef_link, start, q, up, along, R_bw @ lift):
-            if checker is None:
-                checker = at_start.checker(group)
-            sols = solve_ik(group, start, seed=q, tip_link=gripper.eef_link).solutions[1:]
-            candidates = [s for s, hit in zip(sols, checker.check(sols), strict=True) if not hit]
-            candidates = [
-                s
-                for s in candidates
-                if _lines_ok(group, gripper.eef_link, start, s, up, along, R_bw @ lift)
-            ][:1]
-        if candidates:
-            out.append(Push(**{**p.__dict__, "joint_positions": candidates[0]}))  # type: ignore[arg-type]
+        lines = partial(
+            _lines_ok,
+            group,
+            gripper.eef_link,
+            start,
+            up=R_bw @ np.array([0.0, 0.0, p.descent]),
+            along=R_bw @ p.push.vector(p.push.min_distance),
+            lift=R_bw @ p.lift(),
+        )
+        chosen = _first_solution(group, gripper.eef_link, start, q, checker, lines)
+        if chosen is not None:
+            out.append(Push(**{**p.__dict__, "joint_positions": chosen[0]}))  # type: ignore[arg-type]
     return out
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from robocell.errors import GraspError
 from robocell.geometry.pose import Pose
@@ -86,7 +86,8 @@ class Push:
     turn or move an object no grasp reaches): ``pose`` of the end-effector link where the push
     starts (the fingers beside the object's face, not touching it), reached by coming straight
     down ``descent`` [m]; then the straight ``push``. ``contact``: the point of the face the
-    fingers meet (world); ``joint_positions``: an IK solution at ``pose``."""
+    fingers meet (world); ``joint_positions``: an IK solution at ``pose``. After the push the
+    gripper lifts by ``descent`` along :meth:`lift`."""
 
     id: str
     pose: Pose
@@ -95,6 +96,25 @@ class Push:
     contact: tuple[float, float, float]
     quality: float
     joint_positions: NDArray[np.float64] | None = field(default=None, compare=False)
+
+    def lift(self) -> NDArray[np.float64]:
+        """The move after the push (world): ``descent`` long, up and back from the pushed
+        face (a push ends at the edge of the arm's reach, where straight up can leave it)."""
+        return self.descent * up_and_back(self.push.direction)
+
+
+def up_and_back(direction: ArrayLike) -> NDArray[np.float64]:
+    """Unit vector up and back against ``direction``'s horizontal part (2 up for 1.2 back;
+    straight up if it has none): how a gripper leaves what it reached at the edge of the
+    arm's reach, where straight up can leave that reach."""
+    up = np.array([0.0, 0.0, 1.0])
+    d = np.asarray(direction, dtype=float)
+    back = -np.array([d[0], d[1], 0.0])
+    norm = float(np.linalg.norm(back))
+    if norm < 1e-6:
+        return up
+    v = up + 0.6 * back / norm
+    return v / float(np.linalg.norm(v))
 
 
 @dataclass(frozen=True)

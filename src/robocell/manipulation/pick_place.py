@@ -325,14 +325,7 @@ class Manipulator:
                     self._line("push", p.push.vector(), p.push.min_distance)
                     result.stages.append(StageResult(p.id, "push", True))
                     cell.sync_scene()
-                    # up, and back from the pushed face: a push ends at the edge of the arm's
-                    # reach, where straight up can leave it (measured: 2 of 200 layouts)
-                    back = -np.asarray(p.push.direction, dtype=float)
-                    back[2] = 0.0
-                    back /= max(float(np.linalg.norm(back)), 1e-9)
-                    lift = np.array([0.0, 0.0, 1.0]) + 0.6 * back
-                    lift *= p.descent / float(np.linalg.norm(lift))
-                    self._retreat(lift, 0.5 * p.descent, name)
+                    self._retreat(p.lift(), 0.5 * p.descent, name)
                     result.stages.append(StageResult(p.id, "retreat", True))
                     # at rest, away from the fingers: did it stay upright?
                     cell.world.step(100)
