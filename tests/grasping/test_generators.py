@@ -144,3 +144,37 @@ def test_a_box_lying_on_its_side_gets_the_grasps_of_an_upright_one(gripper, axis
     key = lambda g: (g.kind, round(g.width, 5), tuple(np.round(g.pose.position, 5) + 0.0))  # noqa: E731
     assert sorted(map(key, lying)) == sorted(map(key, upright))
     assert math.isclose(max(g.quality for g in lying), max(g.quality for g in upright))
+
+
+@pytest.mark.parametrize(
+    ("name", "off_deg", "ccw"),
+    [
+        ("red_box", 60.0, True),  # a cube: either axis on the radial line will do, 30° ccw
+        ("red_box", 20.0, False),  # 20° cw
+        ("blue_box", 60.0, False),  # only its long axis (x): 60° cw, not 120° ccw
+    ],
+)
+def test_pushes_turn_a_box_the_shorter_way_to_a_pinch(cell, gripper, name, off_deg, ccw):
+    """Pushes turn a box toward the nearest orientation with a pinch across the line to the
+    base: a square box's faces are all pinchable (never more than 45° away), a slender box's
+    only across its short side. The turn's sense is that of the push's moment about the box's
+    centre."""
+    from robocell.grasping import generate_pushes
+
+    scene = cell.scene.copy()
+    for other in cell.object_names:
+        if other != name:
+            scene.remove_object(other)
+    base = scene.link_pose("base_link").position
+    c = np.array([0.62, -0.22, cell.object_pose(name).position[2]])
+    radial = np.arctan2(c[1] - base[1], c[0] - base[0])
+    yaw = radial + np.radians(off_deg)  # the box's x axis off the radial line
+    T = Pose(c, (0.0, 0.0, np.sin(yaw / 2), np.cos(yaw / 2)))
+    scene.move_object(name, T)
+    o = cell.spec.object(name)
+    pushes = generate_pushes(name, o.shape, T, gripper, scene, "arm")
+    assert pushes
+    for p in pushes:
+        lever = np.asarray(p.contact) - c
+        moment = lever[0] * p.push.direction[1] - lever[1] * p.push.direction[0]
+        assert (moment > 0) == ccw, p.id

@@ -63,6 +63,22 @@ def test_opw_gives_eight_solutions_at_a_generic_pose(irb120):
     assert len(sols) == 8 * 2**6  # each branch with both 2π wraps of every joint
 
 
+def test_a_solution_on_a_joint_limit_written_to_eight_decimals_is_found(irb120):
+    """The IRB 120's joint 6 limit is written ±3.14159265, 3.6e-9 inside ±π: a pose whose
+    solution turns joint 6 by exactly π (a side grasp straight out from the base does) keeps
+    that solution, on the limit."""
+    arm = irb120.group("arm")
+    assert arm.upper[5] < np.pi
+    for q6 in (np.pi, -np.pi):
+        q = np.array([0.436, 1.134, -0.189, 0.0, -0.595, q6])
+        T = fk(arm, q, relative_to=arm.base_link)
+        res = solve_ik(arm, T, collision_free=False)
+        assert res.success, res.reason
+        near = res.solutions[np.argmin(np.abs(res.solutions - q).max(axis=1))]
+        assert np.abs(near - np.clip(q, arm.lower, arm.upper)).max() < 1e-6
+        assert arm.within_limits(near)
+
+
 def test_ur_round_trips_ur5e(ur5e):
     arm = ur5e.group("manipulator")
     assert ik_solver(arm).name == "ur"

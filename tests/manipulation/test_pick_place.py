@@ -150,6 +150,30 @@ def test_a_push_turns_a_box_whose_pinch_is_out_of_reach():
     assert generate_grasps(name, o.shape, cell.object_pose(name), man.geometry, cell.scene, "arm")
 
 
+def test_a_push_that_moves_nothing_is_not_reported_done():
+    """A push that passes the object by (here 8 cm above it) fails, says so, and the next
+    candidate is tried."""
+    from dataclasses import replace
+
+    from robocell.grasping import generate_pushes
+
+    cell = Cell.load("sorting", mode="physics", time_scale=0)
+    man = Manipulator(cell)
+    name = "red_box"
+    o = cell.spec.object(name)
+    before = cell.object_pose(name)
+    pushes = generate_pushes(name, o.shape, before, man.geometry, cell.scene, "arm")
+    assert pushes
+    up = pushes[0].pose.position + np.array([0.0, 0.0, 0.08])
+    air = replace(pushes[0], id="air", pose=Pose(up, pushes[0].pose.orientation),
+                  joint_positions=None)  # fmt: skip
+    result = man.push(name, [air])
+    assert not result.success
+    assert "did not move" in result.reason
+    assert [s.stage for s in result.stages if not s.success] == ["push"]
+    assert np.linalg.norm(cell.object_pose(name).position - before.position) < 0.002
+
+
 def test_push_refuses_bad_input():
     from robocell.grasping import generate_pushes
 

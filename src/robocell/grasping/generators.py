@@ -470,17 +470,22 @@ def generate_pushes(
     if half_u - inset <= 0:
         return []
     # which end: pushing the +u end turns the box counter-clockwise (u toward -n). The turn
-    # that brings its long axis onto the line to the base the shorter way (the pinch across
-    # its short side then faces the base's side)
-    long_axis = R_o[:, int(np.argmax(half[:2]))]
-    to_radial = (
-        math.atan2(-to_base[1], -to_base[0]) - math.atan2(long_axis[1], long_axis[0])
-    ) % math.pi
+    # that brings the box the shorter way to where a pinch faces the base's side: an axis on
+    # the line to the base whose crossing axis the open gripper spans (a slender box: its long
+    # axis; a square one: either, so never more than 45°; measured: a cube chosen by one axis
+    # was turned 25° one way, then back the other)
+    radial = math.atan2(-to_base[1], -to_base[0])
+    spanned = [i for i in range(2) if 2 * half[1 - i] <= gripper.open_width - 0.008]
+    turns = [
+        (radial - math.atan2(R_o[1, i], R_o[0, i])) % math.pi
+        for i in spanned or [int(np.argmax(half[:2]))]
+    ]
+    ccw, cw = min(turns), min(math.pi - t for t in turns)
     ends = (
         (1.0,)
-        if to_radial < math.radians(80)
+        if ccw < cw - math.radians(10)
         else (-1.0,)
-        if to_radial > math.radians(100)
+        if cw < ccw - math.radians(10)
         else (1.0, -1.0)
     )
     P = gripper.closed_points if len(gripper.closed_points) else gripper.points

@@ -291,17 +291,26 @@ def ur_ik(p, T, wrist_seed):  # type: ignore[no-untyped-def]
 
 
 # ---------------------------------------------------------------------------------- shared
+# how far outside its limits [rad] a solution is still taken, clamped onto them: limits written
+# to 8 decimals, like ±3.14159265 for ±π, lie 3.6e-9 inside, and a solution exactly at π (a
+# side grasp straight out from the base turns the IRB 120's joint 6 by π) was lost
+LIMIT_SLACK = 1e-6
+
+
 @njit(cache=True)
 def _expand_wraps(sol, lower, upper, out, n):  # type: ignore[no-untyped-def]
-    """Append to ``out`` every 2π variant of ``sol`` that lies within the limits; returns new n."""
+    """Append to ``out`` every 2π variant of ``sol`` that lies within the limits (up to
+    LIMIT_SLACK outside, clamped onto them); returns new n."""
     counts = np.zeros(6, np.int64)
     options = np.empty((6, 8))
     for j in range(6):
-        base = sol[j] - 2.0 * math.pi * math.floor((sol[j] - lower[j]) / (2.0 * math.pi))
+        base = sol[j] - 2.0 * math.pi * math.floor(
+            (sol[j] - lower[j] + LIMIT_SLACK) / (2.0 * math.pi)
+        )
         m = 0
         v = base
-        while v <= upper[j] + 1e-9 and m < 8:
-            if v >= lower[j] - 1e-9:
+        while v <= upper[j] + LIMIT_SLACK and m < 8:
+            if v >= lower[j] - LIMIT_SLACK:
                 options[j, m] = min(upper[j], max(lower[j], v))
                 m += 1
             v += 2.0 * math.pi
