@@ -429,7 +429,7 @@ def generate_pushes(
     distances: tuple[float, ...] = (0.04, 0.03, 0.02),
     tilts_deg: tuple[float, ...] = (30.0, 45.0, 60.0, 75.0, 15.0, 0.0),
     clearance: float = 0.01,
-    inset: float = 0.012,
+    inset: float = 0.006,
     descent: float = 0.05,
     sideways_deg: tuple[float, ...] = (35.0, 0.0),
 ) -> list[Push]:
