@@ -87,3 +87,30 @@ def test_repair_steps_around_an_obstacle_the_coarse_check_stepped_over(irb120):
     assert np.array_equal(repaired[0], a) and np.array_equal(repaired[-1], b)
     for p, q in zip(repaired[:-1], repaired[1:], strict=True):
         assert not checker.check_exact(Edges(None, 0.005).states(p, q, include_start=True)).any()
+
+
+def test_validation_names_the_segments_that_collide(walled):
+    """The final check at the validation resolution says which straight segments collide: the
+    same as checking each segment on its own (the repair then redoes only those)."""
+    from robocell.planning import Planner, PlannerConfig
+
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    planner = Planner(walled, PlannerConfig(max_deviation=0.0))
+    rng = np.random.default_rng(3)
+    fine = Edges(None, planner.config.validation_resolution)
+    seen = set()
+    for _ in range(20):
+        path = np.vstack([START, [arm.random(rng) for _ in range(3)], GOAL])
+        ok, _, bad, colliding = planner._validate(checker, path)
+        each = np.array(
+            [
+                checker.check(fine.states(a, b)).any()
+                for a, b in zip(path[:-1], path[1:], strict=True)
+            ]
+        )
+        assert np.array_equal(colliding, each)
+        assert ok == (not each.any())
+        assert (len(bad) > 0) == (not ok)
+        seen.add(int(each.sum()))
+    assert len(seen) > 1  # paths with different numbers of colliding segments were tried

@@ -119,14 +119,14 @@ class Planner:
                 path = self._shortcut(edges, path, rng, deadline, budget)
             else:
                 path = dedupe(path)  # a tree's connect step can repeat a node
-            ok, dev, bad = self._validate(checker, path)
+            ok, dev, bad, segments = self._validate(checker, path)
             if not ok and planner_name.lower() in NATIVE_PLANNERS:
                 # repair the segments that collide between checked states, each by a search
                 # between its ends at the validation resolution, before replanning it all
-                repaired = self._repair(checker, path, group, rng, deadline)
+                repaired = self._repair(checker, path, group, rng, deadline, segments)
                 if repaired is not None:
                     path = repaired
-                    ok, dev, bad = self._validate(checker, path)
+                    ok, dev, bad, _ = self._validate(checker, path)
                     stats["repairs"] = stats.get("repairs", 0) + 1
             if not ok:
                 reason = (
@@ -359,14 +359,17 @@ class Planner:
         group: JointGroup,
         rng: np.random.Generator,
         deadline: float,
+        colliding: NDArray[np.bool_] | None = None,
     ) -> NDArray[np.float64] | None:
         """``path`` with each segment that collides at the validation resolution replaced by a
         path between its ends at that resolution: a detour through one waypoint near the
-        segment's middle if one is found, else a search; None if neither succeeds."""
+        segment's middle if one is found, else a search; None if neither succeeds.
+        ``colliding``: which segments collide, if the validation found out (else each segment
+        is checked here)."""
         fine = Edges(checker, self.config.validation_resolution)
         out = [path[0]]
-        for a, b in zip(path[:-1], path[1:], strict=True):
-            if fine.free(a, b):
+        for k, (a, b) in enumerate(zip(path[:-1], path[1:], strict=True)):
+            if not colliding[k] if colliding is not None else fine.free(a, b):
                 out.append(b)
                 continue
             via = self._detour(fine, a, b, group, rng)
@@ -403,23 +406,39 @@ class Planner:
         self,
         checker: CollisionChecker,
         path: NDArray[np.float64],
-    ) -> tuple[bool, float, NDArray[np.float64]]:
+    ) -> tuple[bool, float, NDArray[np.float64], NDArray[np.bool_]]:
         """Check the path as it will be executed (corners rounded) at the validation
         resolution: (valid, corner deviation to execute it with, the first colliding state or
-        an empty array). If only a rounded corner collides, the corners are kept sharp (the
-        motion stops at each) instead."""
+        an empty array, which segments collide with sharp corners). If only a rounded corner
+        collides, the corners are kept sharp (the motion stops at each) instead."""
         res = self.config.validation_resolution
         dev = self.config.max_deviation
+        none = np.zeros(len(path) - 1, dtype=bool)
         if dev > 0 and len(path) > 2:
             hit = checker.check(BlendedPath(path, dev).sample_states(res))
             if not hit.any():
-                return True, dev, np.empty(0)
-        sharp = BlendedPath(path, 0.0).sample_states(res)
+                return True, dev, np.empty(0), none
+        sharp, segment = _segment_states(path, res)
         hit_sharp = checker.check(sharp)
         if not hit_sharp.any():
-            return True, 0.0, np.empty(0)
+            return True, 0.0, np.empty(0), none
         # naming the colliding pair costs as much as the check: the caller does it if needed
-        return False, 0.0, sharp[int(np.argmax(hit_sharp))]
+        colliding = np.bincount(segment[hit_sharp], minlength=len(path) - 1) > 0
+        return False, 0.0, sharp[int(np.argmax(hit_sharp))], colliding
+
+
+def _segment_states(
+    path: NDArray[np.float64], resolution: float
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The states of a path's straight segments, consecutive ones at most ``resolution`` apart
+    in every joint (the path's start first, on segment 0), and the index of the segment each
+    lies on."""
+    steps = np.maximum(1, np.ceil(np.abs(np.diff(path, axis=0)).max(axis=1) / resolution))
+    segment = np.repeat(np.arange(len(path) - 1), steps.astype(np.int64))
+    start = np.concatenate([[0], np.cumsum(steps)[:-1]])
+    t = (np.arange(len(segment)) - start[segment] + 1) / steps[segment]
+    states = path[segment] + t[:, None] * (path[segment + 1] - path[segment])
+    return np.vstack([path[:1], states]), np.concatenate([[0], segment])
 
 
 def _check_request(request: MotionPlanRequest) -> None:
