@@ -90,8 +90,9 @@ def test_repair_steps_around_an_obstacle_the_coarse_check_stepped_over(irb120):
 
 
 def test_validation_names_the_segments_that_collide(walled):
-    """The final check at the validation resolution says which straight segments collide: the
-    same as checking each segment on its own (the repair then redoes only those)."""
+    """The final check at the validation resolution says which straight segments collide, and
+    where first: the same as checking each segment on its own (the repair then redoes only
+    those, stepping aside where they collide)."""
     from robocell.planning import Planner, PlannerConfig
 
     arm = walled.robot.group("arm")
@@ -102,15 +103,14 @@ def test_validation_names_the_segments_that_collide(walled):
     seen = set()
     for _ in range(20):
         path = np.vstack([START, [arm.random(rng) for _ in range(3)], GOAL])
-        ok, _, bad, colliding = planner._validate(checker, path)
-        each = np.array(
-            [
-                checker.check(fine.states(a, b)).any()
-                for a, b in zip(path[:-1], path[1:], strict=True)
-            ]
-        )
-        assert np.array_equal(colliding, each)
-        assert ok == (not each.any())
+        ok, _, bad, hits = planner._validate(checker, path)
+        for k, (a, b) in enumerate(zip(path[:-1], path[1:], strict=True)):
+            states = fine.states(a, b)
+            hit = checker.check(states)
+            assert (k in hits) == hit.any()
+            if hit.any():  # the segment's first colliding state
+                assert np.allclose(hits[k], states[np.argmax(hit)])
+        assert ok == (not hits)
         assert (len(bad) > 0) == (not ok)
-        seen.add(int(each.sum()))
+        seen.add(len(hits))
     assert len(seen) > 1  # paths with different numbers of colliding segments were tried

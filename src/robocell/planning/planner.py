@@ -48,7 +48,7 @@ class PlannerConfig:
 
     resolution: float = 0.05
     validation_resolution: float = 0.01
-    step: float = 1.0
+    step: float = 0.7
     max_deviation: float = 0.05
     shortcut: bool = True
     compiled: bool = True  # the search compiled whole (numba); False: the Python search alone
@@ -119,11 +119,11 @@ class Planner:
                 path = self._shortcut(edges, path, rng, deadline, budget)
             else:
                 path = dedupe(path)  # a tree's connect step can repeat a node
-            ok, dev, bad, segments = self._validate(checker, path)
+            ok, dev, bad, hits = self._validate(checker, path)
             if not ok and planner_name.lower() in NATIVE_PLANNERS:
                 # repair the segments that collide between checked states, each by a search
                 # between its ends at the validation resolution, before replanning it all
-                repaired = self._repair(checker, path, group, rng, deadline, segments)
+                repaired = self._repair(checker, path, group, rng, deadline, hits)
                 if repaired is not None:
                     path = repaired
                     ok, dev, bad, _ = self._validate(checker, path)
@@ -359,20 +359,20 @@ class Planner:
         group: JointGroup,
         rng: np.random.Generator,
         deadline: float,
-        colliding: NDArray[np.bool_] | None = None,
+        hits: dict[int, NDArray[np.float64]] | None = None,
     ) -> NDArray[np.float64] | None:
         """``path`` with each segment that collides at the validation resolution replaced by a
-        path between its ends at that resolution: a detour through one waypoint near the
-        segment's middle if one is found, else a search; None if neither succeeds.
-        ``colliding``: which segments collide, if the validation found out (else each segment
-        is checked here)."""
+        path between its ends at that resolution: a detour through one waypoint near where it
+        collides (its middle if that is not known) if one is found, else a search; None if
+        neither succeeds. ``hits``: the first colliding state of each segment that collides,
+        if the validation found out (else each segment is checked here)."""
         fine = Edges(checker, self.config.validation_resolution)
         out = [path[0]]
         for k, (a, b) in enumerate(zip(path[:-1], path[1:], strict=True)):
-            if not colliding[k] if colliding is not None else fine.free(a, b):
+            if k not in hits if hits is not None else fine.free(a, b):
                 out.append(b)
                 continue
-            via = self._detour(fine, a, b, group, rng)
+            via = self._detour(fine, a, b, group, rng, None if hits is None else hits[k])
             if via is not None:
                 out.extend([via, b])
                 continue
@@ -389,13 +389,15 @@ class Planner:
         b: NDArray[np.float64],
         group: JointGroup,
         rng: np.random.Generator,
+        near: NDArray[np.float64] | None = None,
         tries: int = 24,
     ) -> NDArray[np.float64] | None:
-        """A waypoint near the middle of a → b through which both halves are free at the
-        fine resolution, or None. A segment the search found free at its coarser resolution
-        usually clips an obstacle between two checked states only: a small step aside clears
-        it, for a few checks instead of a search (radii from 0.02 to 0.4 rad)."""
-        mid = 0.5 * (a + b)
+        """A waypoint near ``near`` (a state of a → b; its middle if None) through which both
+        halves are free at the fine resolution, or None. A segment the search found free at its
+        coarser resolution usually clips an obstacle between two checked states only: a small
+        step aside there clears it, for a few checks instead of a search (radii from 0.02 to
+        0.4 rad)."""
+        mid = 0.5 * (a + b) if near is None else near
         for radius in np.geomspace(0.02, 0.4, tries):
             via = np.clip(mid + rng.uniform(-radius, radius, group.dof), group.lower, group.upper)
             if fine.free(a, via) and fine.free(via, b):
@@ -406,25 +408,27 @@ class Planner:
         self,
         checker: CollisionChecker,
         path: NDArray[np.float64],
-    ) -> tuple[bool, float, NDArray[np.float64], NDArray[np.bool_]]:
+    ) -> tuple[bool, float, NDArray[np.float64], dict[int, NDArray[np.float64]]]:
         """Check the path as it will be executed (corners rounded) at the validation
         resolution: (valid, corner deviation to execute it with, the first colliding state or
-        an empty array, which segments collide with sharp corners). If only a rounded corner
-        collides, the corners are kept sharp (the motion stops at each) instead."""
+        an empty array, the first colliding state of each segment that collides with sharp
+        corners). If only a rounded corner collides, the corners are kept sharp (the motion
+        stops at each) instead."""
         res = self.config.validation_resolution
         dev = self.config.max_deviation
-        none = np.zeros(len(path) - 1, dtype=bool)
         if dev > 0 and len(path) > 2:
             hit = checker.check(BlendedPath(path, dev).sample_states(res))
             if not hit.any():
-                return True, dev, np.empty(0), none
+                return True, dev, np.empty(0), {}
         sharp, segment = _segment_states(path, res)
         hit_sharp = checker.check(sharp)
         if not hit_sharp.any():
-            return True, 0.0, np.empty(0), none
+            return True, 0.0, np.empty(0), {}
         # naming the colliding pair costs as much as the check: the caller does it if needed
-        colliding = np.bincount(segment[hit_sharp], minlength=len(path) - 1) > 0
-        return False, 0.0, sharp[int(np.argmax(hit_sharp))], colliding
+        hits: dict[int, NDArray[np.float64]] = {}
+        for i in np.flatnonzero(hit_sharp)[::-1]:  # the first of each segment last
+            hits[int(segment[i])] = sharp[i]
+        return False, 0.0, sharp[int(np.argmax(hit_sharp))], hits
 
 
 def _segment_states(
