@@ -78,7 +78,7 @@ def test_repair_steps_around_an_obstacle_the_coarse_check_stepped_over(irb120):
     else:
         pytest.fail("no ball position that only the fine check sees")
     planner = Planner(scene)
-    via = planner._detour(Edges(checker, 0.01), a, b, arm, np.random.default_rng(0))
+    via = planner._detour(Edges(checker, 0.01), a, b, arm, np.random.default_rng(0), (a + b) / 2)
     assert via is not None
     for p, q in ((a, via), (via, b)):
         assert not checker.check_exact(Edges(None, 0.005).states(p, q, include_start=True)).any()

@@ -331,15 +331,15 @@ class Manipulator:
                     # at rest, away from the fingers: did it stay upright?
                     cell.world.step(100)
                     cell.sync_scene()
-                    tilt = float(np.degrees(np.arccos(np.clip(
-                        cell.object_pose(name).rotation()[2, 2], -1.0, 1.0))))  # fmt: skip
-                    if not _moved(before, cell.object_pose(name), 0.002, np.radians(1.0)):
+                    after = cell.object_pose(name)
+                    if not _moved(before, after, 0.002, np.radians(1.0)):
                         # it passed beside the object (measured: one layout pushed the same
                         # air four times); the object is where it was, so the next may do
                         result.stages.append(
                             StageResult(p.id, "push", False, "the fingers did not move it")
                         )
                         continue
+                    tilt = float(np.degrees(np.arccos(np.clip(after.rotation()[2, 2], -1.0, 1.0))))
                     if before.rotation()[2, 2] > 0.99 and tilt > 20.0:
                         result.stages.append(
                             StageResult(

@@ -363,16 +363,18 @@ class Planner:
     ) -> NDArray[np.float64] | None:
         """``path`` with each segment that collides at the validation resolution replaced by a
         path between its ends at that resolution: a detour through one waypoint near where it
-        collides (its middle if that is not known) if one is found, else a search; None if
-        neither succeeds. ``hits``: the first colliding state of each segment that collides,
-        if the validation found out (else each segment is checked here)."""
+        first collides if one is found, else a search; None if neither succeeds. ``hits``: the
+        first colliding state of each segment that collides, as :meth:`_validate` found them
+        (checked here if not given)."""
         fine = Edges(checker, self.config.validation_resolution)
+        if hits is None:
+            hits = _first_hits(checker, path, fine.resolution)
         out = [path[0]]
         for k, (a, b) in enumerate(zip(path[:-1], path[1:], strict=True)):
-            if k not in hits if hits is not None else fine.free(a, b):
+            if k not in hits:
                 out.append(b)
                 continue
-            via = self._detour(fine, a, b, group, rng, None if hits is None else hits[k])
+            via = self._detour(fine, a, b, group, rng, hits[k])
             if via is not None:
                 out.extend([via, b])
                 continue
@@ -389,17 +391,16 @@ class Planner:
         b: NDArray[np.float64],
         group: JointGroup,
         rng: np.random.Generator,
-        near: NDArray[np.float64] | None = None,
+        near: NDArray[np.float64],
         tries: int = 24,
     ) -> NDArray[np.float64] | None:
-        """A waypoint near ``near`` (a state of a → b; its middle if None) through which both
-        halves are free at the fine resolution, or None. A segment the search found free at its
-        coarser resolution usually clips an obstacle between two checked states only: a small
-        step aside there clears it, for a few checks instead of a search (radii from 0.02 to
-        0.4 rad)."""
-        mid = 0.5 * (a + b) if near is None else near
+        """A waypoint near ``near`` (a state of a → b) through which both halves are free at
+        the fine resolution, or None. A segment the search found free at its coarser
+        resolution usually clips an obstacle between two checked states only: a small step
+        aside there clears it, for a few checks instead of a search (radii from 0.02 to 0.4
+        rad)."""
         for radius in np.geomspace(0.02, 0.4, tries):
-            via = np.clip(mid + rng.uniform(-radius, radius, group.dof), group.lower, group.upper)
+            via = np.clip(near + rng.uniform(-radius, radius, group.dof), group.lower, group.upper)
             if fine.free(a, via) and fine.free(via, b):
                 return via
         return None
@@ -420,15 +421,23 @@ class Planner:
             hit = checker.check(BlendedPath(path, dev).sample_states(res))
             if not hit.any():
                 return True, dev, np.empty(0), {}
-        sharp, segment = _segment_states(path, res)
-        hit_sharp = checker.check(sharp)
-        if not hit_sharp.any():
+        hits = _first_hits(checker, path, res)
+        if not hits:
             return True, 0.0, np.empty(0), {}
         # naming the colliding pair costs as much as the check: the caller does it if needed
-        hits: dict[int, NDArray[np.float64]] = {}
-        for i in np.flatnonzero(hit_sharp)[::-1]:  # the first of each segment last
-            hits[int(segment[i])] = sharp[i]
-        return False, 0.0, sharp[int(np.argmax(hit_sharp))], hits
+        return False, 0.0, hits[min(hits)], hits
+
+
+def _first_hits(
+    checker: CollisionChecker, path: NDArray[np.float64], resolution: float
+) -> dict[int, NDArray[np.float64]]:
+    """The first colliding state of each of the path's straight segments that collides at
+    ``resolution``, by segment index (all states checked in one batch)."""
+    states, segment = _segment_states(path, resolution)
+    hits: dict[int, NDArray[np.float64]] = {}
+    for i in np.flatnonzero(checker.check(states))[::-1]:  # each segment's first last
+        hits[int(segment[i])] = states[i]
+    return hits
 
 
 def _segment_states(
