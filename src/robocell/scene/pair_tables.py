@@ -26,7 +26,7 @@ lower link's surface has a vertex inside the upper (closed) mesh and one outside
 farther from its surface than it moves in the cell, so that the surfaces cross wherever in
 the cell; FREE when coal finds the links farther apart than any point of the lower one moves.
 That leaves 1.7 % of the forearm–wrist 2 table to the kernel, and all four UR5 tables' share
-of it falls from 4.1 % to 1.6 %.
+of it falls from 4.0 % to 1.6 %.
 """
 
 from __future__ import annotations
