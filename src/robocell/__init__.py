@@ -7,6 +7,11 @@ import os as _os
 
 # MuJoCo picks its OpenGL backend when first imported: offscreen EGL unless the user chose
 _os.environ.setdefault("MUJOCO_GL", "egl")
+# The kernels' OpenMP threads sleep when a parallel check ends instead of spinning (GNU
+# OpenMP's default spins for milliseconds): the planner's searches run in threads of their
+# own right after such checks, and spinning threads took their cores (a search ran up to 2.5x
+# slower, measured). Read when OpenMP starts, so unless the user chose.
+_os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 
 from robocell.errors import (

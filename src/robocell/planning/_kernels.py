@@ -18,7 +18,8 @@ from numba import njit
 
 from robocell.scene import _kernels as SK
 
-FOUND, NOT_FOUND, FULL = 0, 1, 2
+FOUND, NOT_FOUND, FULL, STOPPED = 0, 1, 2, 3
+STATE_WORK = 100  # a state's kinematics and pair loop, in sphere centres placed (fitted)
 
 
 @njit(cache=True)
@@ -29,9 +30,9 @@ def _clock():  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _free_prefix(a, b, resolution, model, scratch, epoch, buf):  # type: ignore[no-untyped-def]
+def _free_prefix(a, b, resolution, model, scratch, epoch, buf, slot):  # type: ignore[no-untyped-def]
     """(free states after a on the segment a → b, states on it), the states at most
-    ``resolution`` apart per joint, b included, a not."""
+    ``resolution`` apart per joint, b included, a not; checked on scratch slot ``slot``."""
     dist = 0.0
     for j in range(a.shape[0]):
         dist = max(dist, abs(b[j] - a[j]))
@@ -42,11 +43,35 @@ def _free_prefix(a, b, resolution, model, scratch, epoch, buf):  # type: ignore[
         t = (k + 1) / n
         for j in range(a.shape[0]):
             buf[k, j] = a[j] + t * (b[j] - a[j])
-    out, _ = SK.classify_serial(buf[:n], model, scratch, epoch, False, True)
+    out, _ = SK.classify_serial(buf[:n], model, scratch, epoch, False, True, slot)
     for k in range(n):
         if out[k] != SK.FREE:
             return k, n
     return n, n
+
+
+@njit(cache=True)
+def _beaten(found, me, work):  # type: ignore[no-untyped-def]
+    """Whether another search found a path with less than ``work`` done."""
+    for j in range(found.shape[0]):
+        if j != me and found[j] < work:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _placed(scratch, slot):  # type: ignore[no-untyped-def]
+    """The sphere centres the kernel has placed on scratch slot ``slot`` (K._centre)."""
+    return scratch[1][slot, -1] + scratch[3][slot, -1]
+
+
+@njit(cache=True)
+def _work(stats, scratch, slot, placed_before):  # type: ignore[no-untyped-def]
+    """A search's work so far, in sphere centres placed, each state counted as STATE_WORK
+    more (its kinematics): a measure of its time that does not depend on the machine or its
+    load. Kept in stats[4]."""
+    stats[4] = stats[3] * STATE_WORK + _placed(scratch, slot) - placed_before
+    return stats[4]
 
 
 @njit(cache=True)
@@ -63,7 +88,7 @@ def _nearest(Q, n, q):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _extend(Q, P, n, i, q_to, step, resolution, model, scratch, epoch, buf, stats):  # type: ignore[no-untyped-def]
+def _extend(Q, P, n, i, q_to, step, resolution, model, scratch, epoch, buf, stats, slot):  # type: ignore[no-untyped-def]
     """Grow the tree (Q, P, n nodes) from node i towards q_to by at most ``step`` (L∞), as far
     as it is free: the new node's index, or −1 if not even the first state is free."""
     dof = q_to.shape[0]
@@ -76,7 +101,7 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, scratch, epoch, buf, stat
     target = np.empty(dof)
     for j in range(dof):
         target[j] = Q[i, j] + f * (q_to[j] - Q[i, j])
-    k, m = _free_prefix(Q[i], target, resolution, model, scratch, epoch + stats[2], buf)
+    k, m = _free_prefix(Q[i], target, resolution, model, scratch, epoch + stats[2], buf, slot)
     stats[2] += m
     stats[3] += min(k + 1, m)
     if k == 0:
@@ -89,16 +114,24 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, scratch, epoch, buf, stat
     return n
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def rrt_connect(
-    start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, epoch, cap
-):  # type: ignore[no-untyped-def]
+    start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, epoch, cap,
+    slot, found, me,
+):  # type: ignore[no-untyped-def]  # fmt: skip
     """A collision-free path (K, dof) from ``start`` to one of ``goals`` (G, dof) and a status
     (FOUND, NOT_FOUND when ``deadline`` (time.perf_counter) passed, FULL when a tree reached
-    ``cap`` nodes), with stats (iterations, nodes, epochs used, states checked)."""
+    ``cap`` nodes, STOPPED), with stats (iterations, nodes, epochs used, states checked).
+
+    Runs without the GIL, on scratch slot ``slot``, so that searches with other seeds can run
+    beside it: ``found[me]`` is set to its work (see :func:`_work`) when it finds a path,
+    and it stops (STOPPED) once its work exceeds that of another search that found one
+    (``found[j]``, j ≠ me). Which search wins is then the one that needs the least work, however the
+    threads are scheduled."""
     np.random.seed(seed)  # noqa: NPY002 (numba's generator: the legacy API is what it compiles)
     dof = start.shape[0]
-    stats = np.zeros(4, np.int64)  # iterations, nodes, epochs used, states checked
+    stats = np.zeros(5, np.int64)  # iterations, nodes, epochs used, states checked, work
+    placed = _placed(scratch, slot)
     buf = np.empty((4096, dof))
     empty = np.empty((0, dof))
     # straight to the nearest goals first: many requests need nothing more
@@ -106,13 +139,16 @@ def rrt_connect(
     for g in range(goals.shape[0]):
         d[g] = np.sqrt(np.sum((goals[g] - start) ** 2))
     for g in np.argsort(d)[:4]:
-        k, m = _free_prefix(start, goals[g], resolution, model, scratch, epoch + stats[2], buf)
+        k, m = _free_prefix(
+            start, goals[g], resolution, model, scratch, epoch + stats[2], buf, slot
+        )
         stats[2] += m
         stats[3] += min(k + 1, m)
         if k == m:
             path = np.empty((2, dof))
             path[0] = start
             path[1] = goals[g]
+            found[me] = _work(stats, scratch, slot, placed)
             return path, FOUND, stats
     Qa = np.empty((cap, dof))
     Pa = np.empty(cap, np.int64)
@@ -134,11 +170,16 @@ def rrt_connect(
         if na >= cap - 1 or nb >= cap - 1:
             stats[1] = na + nb
             return empty, FULL, stats
+        if _beaten(found, me, _work(stats, scratch, slot, placed)):
+            stats[1] = na + nb
+            return empty, STOPPED, stats
         stats[0] += 1
         for j in range(dof):
             q_rand[j] = lower[j] + np.random.random() * (upper[j] - lower[j])  # noqa: NPY002
         i = _nearest(Qa, na, q_rand)
-        i_new = _extend(Qa, Pa, na, i, q_rand, step, resolution, model, scratch, epoch, buf, stats)
+        i_new = _extend(
+            Qa, Pa, na, i, q_rand, step, resolution, model, scratch, epoch, buf, stats, slot
+        )
         if i_new >= 0:
             na += 1
             q_new = Qa[i_new].copy()
@@ -146,8 +187,9 @@ def rrt_connect(
             j = _nearest(Qb, nb, q_new)
             while nb < cap - 1:
                 j2 = _extend(
-                    Qb, Pb, nb, j, q_new, step, resolution, model, scratch, epoch, buf, stats
-                )
+                    Qb, Pb, nb, j, q_new, step, resolution, model, scratch, epoch, buf, stats,
+                    slot,
+                )  # fmt: skip
                 if j2 < 0:
                     break
                 nb += 1
@@ -181,6 +223,7 @@ def rrt_connect(
                     stats[1] = na + nb
                     if not a_is_start:
                         path = path[::-1].copy()
+                    found[me] = _work(stats, scratch, slot, placed)
                     return path, FOUND, stats
         Qa, Qb = Qb, Qa
         Pa, Pb = Pb, Pa
@@ -211,7 +254,7 @@ def _edge_free(a, b, resolution, model, scratch, epoch, buf, stats):  # type: ig
             for j in range(dof):
                 buf[r, j] = a[j] + t * (b[j] - a[j])
             r += 1
-    out, _ = SK.classify_serial(buf[:n], model, scratch, epoch + stats[2], False, True)
+    out, _ = SK.classify_serial(buf[:n], model, scratch, epoch + stats[2], False, True, 0)
     stats[2] += n
     for k in range(n):
         if out[k] != SK.FREE:

@@ -53,6 +53,9 @@ class PlannerConfig:
     shortcut: bool = True
     compiled: bool = True  # the search compiled whole (numba); False: the Python search alone
     compiled_share: float = 0.8  # of the time budget; the Python search gets the rest
+    # compiled searches side by side, on seeds of their own (threads): the one that needs
+    # the least work wins (rrt.rrt_connect_compiled)
+    searches: int = 2
     # the random shortcuts may check this share of the states the search checked, and at
     # least shortcut_min_states
     shortcut_share: float = 0.5
@@ -126,7 +129,7 @@ class Planner:
                 repaired = self._repair(checker, path, group, rng, deadline, hits)
                 if repaired is not None:
                     path = repaired
-                    ok, dev, bad, _ = self._validate(checker, path)
+                    ok, dev, bad, _ = self._validate(checker, path, segments_checked=True)
                     stats["repairs"] = stats.get("repairs", 0) + 1
             if not ok:
                 reason = (
@@ -150,6 +153,7 @@ class Planner:
                 planner_name or "rrtconnect",
                 stats,
             )
+        stats["corner_deviation"] = best_dev  # the rounding the path was checked with
         if prefix is not None:
             best = np.vstack([prefix, best])
         plan_time = time.perf_counter() - t0
@@ -318,7 +322,9 @@ class Planner:
                 # which settles the states the kernel leaves unsure (near contact)
                 now = time.perf_counter()
                 soon = now + self.config.compiled_share * (deadline - now)
-                path = rrt_connect_compiled(edges, start, goals, lo, hi, rng, soon, step)
+                path = rrt_connect_compiled(
+                    edges, start, goals, lo, hi, rng, soon, step, searches=self.config.searches
+                )
                 if path is not None or time.perf_counter() >= deadline:
                     return path
             return rrt_connect(edges, start, goals, lo, hi, rng, deadline, step)
@@ -409,23 +415,30 @@ class Planner:
         self,
         checker: CollisionChecker,
         path: NDArray[np.float64],
+        segments_checked: bool = False,
     ) -> tuple[bool, float, NDArray[np.float64], dict[int, NDArray[np.float64]]]:
-        """Check the path as it will be executed (corners rounded) at the validation
-        resolution: (valid, corner deviation to execute it with, the first colliding state or
-        an empty array, the first colliding state of each segment that collides with sharp
-        corners). If only a rounded corner collides, the corners are kept sharp (the motion
-        stops at each) instead."""
+        """Check the path as it will be executed at the validation resolution: (valid, corner
+        deviation to execute it with, the first colliding state or an empty array, the first
+        colliding state of each straight segment that collides).
+
+        The straight segments are checked first (``segments_checked``: they already were, at
+        this resolution, as a repair does). A path whose segments are free is valid: if a
+        rounded corner collides (the rest of a rounded path lies on the segments), the
+        corners are kept sharp (the motion stops at each) instead. A path checked rounded
+        first cost a second check whenever a corner cut into an obstacle, as shortened paths
+        that skirt one often do."""
         res = self.config.validation_resolution
+        if not segments_checked:
+            hits = _first_hits(checker, path, res)
+            if hits:
+                # naming the colliding pair costs as much as the check: the caller does it
+                return False, 0.0, hits[min(hits)], hits
         dev = self.config.max_deviation
         if dev > 0 and len(path) > 2:
-            hit = checker.check(BlendedPath(path, dev).sample_states(res))
-            if not hit.any():
-                return True, dev, np.empty(0), {}
-        hits = _first_hits(checker, path, res)
-        if not hits:
-            return True, 0.0, np.empty(0), {}
-        # naming the colliding pair costs as much as the check: the caller does it if needed
-        return False, 0.0, hits[min(hits)], hits
+            arcs = BlendedPath(path, dev).sample_states(res, arcs_only=True)
+            if len(arcs) and checker.check(arcs).any():
+                dev = 0.0
+        return True, dev, np.empty(0), {}
 
 
 def _first_hits(

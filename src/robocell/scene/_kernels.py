@@ -52,12 +52,14 @@ def _obstacle_distance(x, y, z, kind, T, dims):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, inline="always")
 def _centre(n, b, TB, S, W, stamp, cur):  # type: ignore[no-untyped-def]
-    """World centre of sphere n of body b (cached for the current state)."""
+    """World centre of sphere n of body b (cached for the current state). The stamps' last
+    entry counts the centres placed: a measure of the kernel's work (see ``work``)."""
     if stamp[n] != cur:
         x, y, z = S[n, 0], S[n, 1], S[n, 2]
         for i in range(3):
             W[n, i] = TB[b, i, 0] * x + TB[b, i, 1] * y + TB[b, i, 2] * z + TB[b, i, 3]
         stamp[n] = cur
+        stamp[-1] += 1
 
 
 @njit(cache=True)
@@ -1424,10 +1426,11 @@ def _classify_range(
 
 
 @njit(cache=True)
-def classify_serial(qs, model, scratch, epoch, record_flags, stop_early=False):  # type: ignore[no-untyped-def]
+def classify_serial(qs, model, scratch, epoch, record_flags, stop_early=False, slot=0):  # type: ignore[no-untyped-def]
     """:func:`classify` in the calling thread, for batches of at most one chunk: a parallel
     function costs several microseconds more per call even when it runs serially (measured).
-    ``stop_early``: stop at the first state that is not FREE; later states stay UNCHECKED."""
+    ``stop_early``: stop at the first state that is not FREE; later states stay UNCHECKED.
+    ``slot``: the scratch's thread slot to use."""
     W, stamp, Wi, stamp_i, seen, pairs, T = scratch
     N = qs.shape[0]
     out = np.full(N, UNCHECKED, np.int8)
@@ -1439,13 +1442,13 @@ def classify_serial(qs, model, scratch, epoch, record_flags, stop_early=False): 
         N,
         qs,
         model,
-        W[0],
-        stamp[0],
-        Wi[0],
-        stamp_i[0],
-        seen[0],
-        pairs[0],
-        T[0],
+        W[slot],
+        stamp[slot],
+        Wi[slot],
+        stamp_i[slot],
+        seen[slot],
+        pairs[slot],
+        T[slot],
         epoch,
         flags,
         record_flags,

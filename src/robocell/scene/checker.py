@@ -48,6 +48,9 @@ if TYPE_CHECKING:
 
 
 CHUNK = 64  # states per kernel task; a batch of at most one chunk runs in the calling thread
+# scratch slots after the kernel's threads', for the planner's searches that run without the
+# GIL (robocell.planning.rrt): no other kernel call touches them
+SEARCH_SLOTS = 2
 UNION_INNER = 32  # inner spheres of a rigid cluster's union body (the first pass's hit test)
 
 
@@ -559,15 +562,16 @@ def _scratch(
     """Per-thread scratch of the kernel (see K.classify), shared by a robot's checkers and grown
     when a checker has more sphere nodes: filling tens of MB per checker cost more than the rest
     of building it (measured)."""
-    slots = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
+    slots = int(numba.config.NUMBA_NUM_THREADS) + SEARCH_SLOTS  # type: ignore[attr-defined]
     m, k, n_tris = max(m, 1), max(k, 1), max(n_tris, 1)
     have = _SCRATCH.get(robot)
     if have is None or have[0].shape[1] < m or have[2].shape[1] < k or have[4].shape[1] < n_tris:
+        # the stamps' last entry is not a sphere's: it counts the centres placed (K._centre)
         have = (
             np.empty((slots, m, 3)),
-            np.full((slots, m), -1, np.int64),
+            np.full((slots, m + 1), -1, np.int64),
             np.empty((slots, k, 3)),
-            np.full((slots, k), -1, np.int64),
+            np.full((slots, k + 1), -1, np.int64),
             np.full((slots, n_tris), -1, np.int64),
             np.full((slots, 2, K.PAIR_SET), -1, np.int64),
             np.empty((slots, n_links, 4, 4)),

@@ -193,12 +193,16 @@ class BlendedPath(_ArcLengthPath):
                     out[m] = (-cos_t * e1 - sin_t * e2) / r[0]
         return out[0] if scalar else out
 
-    def sample_states(self, resolution: float) -> NDArray[np.float64]:
+    def sample_states(self, resolution: float, arcs_only: bool = False) -> NDArray[np.float64]:
         """Points along the path (M, dof), consecutive ones at most ``resolution`` apart in
-        every joint (a collision check of the path checks these)."""
+        every joint (a collision check of the path checks these). ``arcs_only``: the rounded
+        corners' points alone (the rest lies on the waypoints' straight segments), ends
+        included; (0, dof) if there are none."""
         # per segment, the fastest joint's rate |dq_j/ds| sets the step in s
-        ss = [self.breakpoints]
+        ss = [] if arcs_only else [self.breakpoints]
         for k in range(len(self._kinds)):
+            if arcs_only and self._kinds[k] == 0:
+                continue
             a, b = self._starts[k], self._starts[k + 1]
             if self._kinds[k] == 0:
                 rate = float(np.max(np.abs(self._data[k][1])))
@@ -207,6 +211,8 @@ class BlendedPath(_ArcLengthPath):
                 rate = float(np.max(np.hypot(e1, e2)))
             n = max(1, int(math.ceil((b - a) * rate / resolution)))
             ss.append(np.linspace(a, b, n + 1))
+        if not ss:
+            return np.empty((0, self._dof))
         return self(np.unique(np.concatenate(ss)))
 
 
