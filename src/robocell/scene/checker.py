@@ -566,16 +566,19 @@ def _scratch(
     m, k, n_tris = max(m, 1), max(k, 1), max(n_tris, 1)
     have = _SCRATCH.get(robot)
     if have is None or have[0].shape[1] < m or have[2].shape[1] < k or have[4].shape[1] < n_tris:
-        # the stamps' last entry is not a sphere's: it counts the centres placed (K._centre)
+        # the stamps' last entry is not a sphere's: it counts the centres placed (K._centre).
+        # Filled, not empty: a slot's pages are then mapped here, not in a plan's first search
         have = (
-            np.empty((slots, m, 3)),
+            np.zeros((slots, m, 3)),
             np.full((slots, m + 1), -1, np.int64),
-            np.empty((slots, k, 3)),
+            np.zeros((slots, k, 3)),
             np.full((slots, k + 1), -1, np.int64),
             np.full((slots, n_tris), -1, np.int64),
             np.full((slots, 2, K.PAIR_SET), -1, np.int64),
-            np.empty((slots, n_links, 4, 4)),
+            np.zeros((slots, n_links, 4, 4)),
         )
+        for i in (0, 2, 6):  # np.zeros maps pages lazily
+            have[i].fill(0.0)
         _SCRATCH[robot] = have
     return have
 
