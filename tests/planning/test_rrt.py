@@ -136,7 +136,8 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
             found = np.full(1, np.iinfo(np.int64).max, np.int64)
             path, status, stats = PK.rrt_connect(
                 START, GOAL[None], arm.lower, arm.upper, int(s), 1e18, 0.05, 0.5, model,
-                scratch, next_epoch(1 << 40), 1 << 14, slot, found, 0,
+                scratch, next_epoch(1 << 40), 1 << 14, slot, found, 0, arm.lower, arm.upper,
+                0.0,
             )  # fmt: skip
             assert status == PK.FOUND and found[0] == stats[4]
             alone.append((int(stats[4]), path))
@@ -146,7 +147,7 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
             edges = Edges(checker, 0.05)
             rng = np.random.default_rng(seed)
             path = rrt_connect_compiled(
-                edges, START, GOAL[None], arm.lower, arm.upper, rng, 1e18, 0.5
+                edges, START, GOAL[None], arm.lower, arm.upper, rng, 1e18, 0.5, box_share=0.0
             )
             assert np.array_equal(path, alone[best][1])
     assert winners == {0, 1}  # either seed won, in some problem

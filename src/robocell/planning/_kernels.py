@@ -117,7 +117,7 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, scratch, epoch, buf, stat
 @njit(cache=True, nogil=True)
 def rrt_connect(
     start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, epoch, cap,
-    slot, found, me,
+    slot, found, me, box_lo, box_hi, p_box,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A collision-free path (K, dof) from ``start`` to one of ``goals`` (G, dof) and a status
     (FOUND, NOT_FOUND when ``deadline`` (time.perf_counter) passed, FULL when a tree reached
@@ -174,8 +174,9 @@ def rrt_connect(
             stats[1] = na + nb
             return empty, STOPPED, stats
         stats[0] += 1
+        lo, hi = (box_lo, box_hi) if np.random.random() < p_box else (lower, upper)  # noqa: NPY002
         for j in range(dof):
-            q_rand[j] = lower[j] + np.random.random() * (upper[j] - lower[j])  # noqa: NPY002
+            q_rand[j] = lo[j] + np.random.random() * (hi[j] - lo[j])  # noqa: NPY002
         i = _nearest(Qa, na, q_rand)
         i_new = _extend(
             Qa, Pa, na, i, q_rand, step, resolution, model, scratch, epoch, buf, stats, slot

@@ -56,6 +56,9 @@ class PlannerConfig:
     # compiled searches side by side, on seeds of their own (threads): the one that needs
     # the least work wins (rrt.rrt_connect_compiled)
     searches: int = 2
+    # a share of the search's samples from around the start and goals (rrt_connect_compiled)
+    box_share: float = 0.8
+    box_margin: float = 2.0
     # the random shortcuts may check this share of the states the search checked, and at
     # least shortcut_min_states
     shortcut_share: float = 0.5
@@ -323,8 +326,9 @@ class Planner:
                 now = time.perf_counter()
                 soon = now + self.config.compiled_share * (deadline - now)
                 path = rrt_connect_compiled(
-                    edges, start, goals, lo, hi, rng, soon, step, searches=self.config.searches
-                )
+                    edges, start, goals, lo, hi, rng, soon, step, searches=self.config.searches,
+                    box_margin=self.config.box_margin, box_share=self.config.box_share,
+                )  # fmt: skip
                 if path is not None or time.perf_counter() >= deadline:
                     return path
             return rrt_connect(edges, start, goals, lo, hi, rng, deadline, step)

@@ -165,6 +165,8 @@ def rrt_connect_compiled(
     step: float = 0.8,
     cap: int = 1 << 14,
     searches: int = 2,
+    box_margin: float = 2.0,
+    box_share: float = 0.8,
 ) -> NDArray[np.float64] | None:
     """:func:`rrt_connect` compiled whole on the collision kernel (see
     :mod:`robocell.planning._kernels`): a path, or None when the deadline passed or a tree
@@ -179,7 +181,14 @@ def rrt_connect_compiled(
     A search's work varies widely with its seed, so the better of two cuts the long searches
     most: over the first 40 problems of each UR5 set with obstacles, the mean planning time
     fell by 11–43 %, the p95 by 12–52 %. Short searches are slowed a little (two at once
-    share the cache), and joining the second one later did not help."""
+    share the cache), and joining the second one later did not help.
+
+    A share ``box_share`` of the samples is drawn from the box around the start and the goals
+    grown by ``box_margin`` [rad] (within the limits), the rest from the whole joint space
+    (so the search stays complete): most motions need a detour near the straight line, not
+    one through the far side of the joint space. Over 2 × 40 problems per UR5 set, 0.8 and
+    2 rad cut the cage's mean planning time from 95 to 40 ms and the bookshelves' p95 by
+    half, and shortened the paths by a sixth; a 1 rad margin doubled the cage's time."""
     from robocell.planning import _kernels as PK
     from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 
@@ -196,10 +205,14 @@ def rrt_connect_compiled(
         np.ascontiguousarray(upper, dtype=float),
     )
 
+    ends = np.vstack([start, goals])
+    box_lo = np.maximum(lower, ends.min(axis=0) - box_margin)
+    box_hi = np.minimum(upper, ends.max(axis=0) + box_margin)
+
     def search(i: int) -> tuple[NDArray[np.float64], int, NDArray[np.int64]]:
         return PK.rrt_connect(  # type: ignore[no-any-return]
             *args, int(seeds[i]), deadline, edges.resolution, step, model, scratch,
-            next_epoch(1 << 40), cap, first_slot + i, found, i,
+            next_epoch(1 << 40), cap, first_slot + i, found, i, box_lo, box_hi, box_share,
         )  # fmt: skip
 
     with _SEARCH_LOCK:
@@ -273,7 +286,7 @@ def warm_up(checker: BatchChecker) -> None:
     # once in a search thread too: its first call there costs a few ms (measured)
     _threads().submit(
             PK.rrt_connect, q, q[None, :], q - 1, q + 1, 0, 0.0, 0.05, 1.0, model, scratch,
-        next_epoch(1 << 20), 16, slot, found, 0,
+        next_epoch(1 << 20), 16, slot, found, 0, q - 1, q + 1, 0.5,
     ).result()  # fmt: skip
     PK.shortcut(np.array([q, q + 0.01]), 0, 0.0, 0.05, model, scratch, next_epoch(1 << 20), 1, 1)
     PK._clock()  # numba's object mode costs 50 ms on its first call (measured)
