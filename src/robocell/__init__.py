@@ -7,11 +7,12 @@ import os as _os
 
 # MuJoCo picks its OpenGL backend when first imported: offscreen EGL unless the user chose
 _os.environ.setdefault("MUJOCO_GL", "egl")
-# The kernels' OpenMP threads sleep when a parallel check ends instead of spinning (GNU
-# OpenMP's default spins for milliseconds): the planner's searches run in threads of their
-# own right after such checks, and spinning threads took their cores (a search ran up to 2.5x
-# slower, measured). Read when OpenMP starts, so unless the user chose.
-_os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+# The kernels' OpenMP threads spin briefly when a parallel check ends, then sleep (GNU
+# OpenMP's default spins for milliseconds): the planner's searches run in threads of their own
+# right after such checks, and spinning threads took their cores (a search ran up to 2.5x
+# slower), while threads that sleep at once take 0.2 ms to wake for the next check (measured).
+# Read when OpenMP starts, so unless the user chose.
+_os.environ.setdefault("GOMP_SPINCOUNT", "10000")
 
 
 from robocell.errors import (
