@@ -10,6 +10,7 @@ first collision.
 from __future__ import annotations
 
 import math
+import os
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -228,15 +229,19 @@ def rrt_connect_compiled(
 
 
 _SEARCH_LOCK = threading.Lock()  # the searches' scratch slots serve one planner at a time
-_POOL: list[ThreadPoolExecutor] = []
+_POOL: dict[int, ThreadPoolExecutor] = {}
 
 
 def _threads() -> ThreadPoolExecutor:
-    if not _POOL:
+    """The search threads of this process (a forked child gets its own: its parent's threads
+    did not come along, and their pool would never run its work)."""
+    pid = os.getpid()
+    if pid not in _POOL:
         from robocell.scene.checker import SEARCH_SLOTS
 
-        _POOL.append(ThreadPoolExecutor(SEARCH_SLOTS - 1, thread_name_prefix="robocell-search"))
-    return _POOL[0]
+        _POOL.clear()
+        _POOL[pid] = ThreadPoolExecutor(SEARCH_SLOTS - 1, thread_name_prefix="robocell-search")
+    return _POOL[pid]
 
 
 def shortcut_compiled(
