@@ -134,11 +134,12 @@ def rrt_connect(
     placed = _placed(scratch, slot)
     buf = np.empty((4096, dof))
     empty = np.empty((0, dof))
-    # straight to the nearest goals first: many requests need nothing more
+    # straight to the nearest goals first: many requests need nothing more (the first search
+    # tries it; the others would repeat it)
     d = np.empty(goals.shape[0])
     for g in range(goals.shape[0]):
         d[g] = np.sqrt(np.sum((goals[g] - start) ** 2))
-    for g in np.argsort(d)[:4]:
+    for g in np.argsort(d)[: 4 if me == 0 else 0]:
         k, m = _free_prefix(
             start, goals[g], resolution, model, scratch, epoch + stats[2], buf, slot
         )
