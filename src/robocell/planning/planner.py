@@ -63,6 +63,9 @@ class PlannerConfig:
     # least shortcut_min_states
     shortcut_share: float = 0.5
     shortcut_min_states: int = 100
+    # random shortcuts at most (fewer if 12 fail in a row): 20 instead of 40 cut the shortcut
+    # time by 15 % on the same paths, which came out 1–3 % longer (UR5 bookshelf, table)
+    shortcut_tries: int = 20
     ik_timeout: float = 0.05
     numeric_goal_solutions: int = 4
     fix_start_radius: float = 0.2
@@ -358,9 +361,10 @@ class Planner:
         deadline: float,
         budget: int,
     ) -> NDArray[np.float64]:
+        tries = self.config.shortcut_tries
         if self.config.compiled:
-            return shortcut_compiled(edges, path, rng, deadline, budget=budget)
-        return shortcut(edges, path, rng, deadline, budget=budget)
+            return shortcut_compiled(edges, path, rng, deadline, tries, budget)
+        return shortcut(edges, path, rng, deadline, tries, budget)
 
     def _repair(
         self,
