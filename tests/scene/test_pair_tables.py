@@ -60,7 +60,10 @@ def _tables(checker):
     return out
 
 
-@pytest.mark.parametrize(("robot", "group_name"), [("mbm_ur5", "manipulator"), ("irb120", "arm")])
+@pytest.mark.parametrize(
+    ("robot", "group_name"),
+    [("mbm_ur5", "manipulator"), ("irb120", "arm"), ("mbm_panda", "panda_arm")],
+)
 def test_table_cells_agree_with_coal(robot, group_name, request):
     model = request.getfixturevalue(robot)
     group = model.group(group_name)

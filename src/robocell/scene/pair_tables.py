@@ -49,7 +49,7 @@ from robocell.scene.spheres import SPHERE_MODEL_VERSION, _cache_dir, _shape_key
 
 TABLE_FREE, TABLE_HIT = K.TABLE_FREE, K.TABLE_HIT
 TABLE_CHECK = 2
-TABLE_VERSION = 3  # 2: distance grids exact to mesh surfaces; 3: cells settled exactly
+TABLE_VERSION = 5  # 2: distance grids exact to mesh surfaces; 5: cells settled exactly
 CELLS = {1: 4096, 2: 1024, 3: 256}  # cells per axis of the finest grid, by number of angles
 COARSE = 16  # cells per axis of the first grid
 SLACK = 1e-6  # [m] added to every margin
@@ -174,7 +174,7 @@ def pair_table(
                 return PairTable(chain.variables, int(z["n"]), z["values"])
         except (OSError, KeyError, ValueError):
             pass  # a damaged cache entry is rebuilt
-    table = _build(robot, chain, base, f, d, packed)
+    table = _build(robot, chain, base, f, d, packed, exact=members is None)
     if path is not None:
         try:
             tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
@@ -194,8 +194,16 @@ def _reach(
 
 
 def _build(
-    robot: RobotModel, chain: Chain, base: NDArray[np.float64], f: int, d: int, packed: Any
+    robot: RobotModel,
+    chain: Chain,
+    base: NDArray[np.float64],
+    f: int,
+    d: int,
+    packed: Any,
+    exact: bool = True,
 ) -> PairTable:
+    """The table of body f (the upper link) against body d. ``exact``: settle the cells the
+    spheres leave exactly (module doc); only for d a link (a cluster's union is several)."""
     args = tree_args(robot)
     t = robot.tree
     joints = args.joints_to(chain.upper, chain.lower)
@@ -277,7 +285,7 @@ def _build(
         n *= 2
     values = values.reshape(-1)
     check = np.flatnonzero(values == TABLE_CHECK)
-    if len(check) and dims < 3:
+    if len(check) and dims < 3 and exact:
         cells = np.array(np.unravel_index(check, (n_final,) * dims)).T
         centres = (cells + 0.5) * (2 * math.pi / n_final)
         half = math.pi / n_final
@@ -294,9 +302,13 @@ def _build(
             )  # fmt: skip
             values[check[hit]] = TABLE_HIT
             check, centres = check[~hit], centres[~hit]
-            margin = float(vrate.max()) * half + SLACK + K.EXACT_TOL
-            free = _clear_by_coal(robot, chain, base, centres, margin)
-            values[check[free]] = TABLE_FREE
+            moves = float(vrate.max())
+        else:
+            # the lower body's root sphere bounds how far any of its points moves
+            moves = float(node_rate[n0])
+        margin = moves * half + SLACK + K.EXACT_TOL
+        free = _clear_by_coal(robot, chain, base, centres, margin)
+        values[check[free]] = TABLE_FREE
     return PairTable(chain.variables, n_final, values)
 
 
