@@ -287,7 +287,7 @@ def _build(
     check = np.flatnonzero(values == TABLE_CHECK)
     if len(check) and dims < 3 and exact:
         cells = np.array(np.unravel_index(check, (n_final,) * dims)).T
-        centres = (cells + 0.5) * (2 * math.pi / n_final)
+        centres = ((cells + 0.5) * (2 * math.pi / n_final)).astype(np.float64)
         half = math.pi / n_final
         mesh = _exact_meshes(packed, f, d)
         if mesh is not None:
