@@ -293,7 +293,8 @@ def _skip_waypoints(path, resolution, model, scratch, epoch, buf, stats, deadlin
 def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries, budget):  # type: ignore[no-untyped-def]
     """:func:`robocell.planning.rrt.shortcut` compiled: greedy waypoint skipping, random
     shortcuts between points on the path (at most ``max_tries``, until 12 fail in a row or
-    ``budget`` states are checked), greedy again; repeated waypoints dropped. Returns the
+    ``budget`` states are checked), greedy again if they changed the path; repeated waypoints
+    dropped. Returns the
     path and stats (2: epochs used, 3: states checked)."""
     np.random.seed(seed)  # noqa: NPY002 (numba's generator)
     dof = path.shape[1]
@@ -303,6 +304,7 @@ def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries,
     stop_at = stats[3] + budget
     fails = 0
     tries = 0
+    changed = False
     while path.shape[0] > 2 and tries < max_tries and fails < 12 and _clock() < deadline:
         if stats[3] >= stop_at:
             break
@@ -338,9 +340,11 @@ def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries,
             new[i1 + 3 :] = path[i2 + 1 :]
             path = new
             fails = 0
+            changed = True
         else:
             fails += 1
-    path = _skip_waypoints(path, resolution, model, scratch, epoch, buf, stats, deadline)
+    if changed:  # else the first pass's result stands (a second would redo its checks)
+        path = _skip_waypoints(path, resolution, model, scratch, epoch, buf, stats, deadline)
     # repeated waypoints dropped (at least the two ends)
     keep = np.ones(path.shape[0], np.bool_)
     for s in range(1, path.shape[0]):

@@ -324,14 +324,15 @@ def shortcut(
     budget: int | None = None,
 ) -> NDArray[np.float64]:
     """A shorter path: greedy removal of waypoints that can be skipped, then random shortcuts
-    between points on the path (OMPL's shortcutPath), then greedy again. Every new edge is
-    checked. ``budget``: the most states the random shortcuts may check (the greedy passes
-    are not counted): a deterministic cap, so that a plan's cost does not depend on the
-    machine's load."""
+    between points on the path (OMPL's shortcutPath), then greedy again if they changed it.
+    Every new edge is checked. ``budget``: the most states the random shortcuts may check (the
+    greedy passes are not counted): a deterministic cap, so that a plan's cost does not
+    depend on the machine's load."""
     path = _skip_waypoints(edges, path, deadline)
     stop_at = None if budget is None else edges.stats.states + budget
     fails = 0
     tries = 0
+    changed = False
     while len(path) > 2 and tries < max_tries and fails < 12 and time.perf_counter() < deadline:
         if stop_at is not None and edges.stats.states >= stop_at:
             break
@@ -357,9 +358,11 @@ def shortcut(
         if edges.free(p1, p2):
             path = np.vstack([path[: i1 + 1], p1, p2, path[i2 + 1 :]])
             fails = 0
+            changed = True
         else:
             fails += 1
-    path = _skip_waypoints(edges, path, deadline)
+    if changed:  # else the first pass's result stands (a second would redo its checks)
+        path = _skip_waypoints(edges, path, deadline)
     return dedupe(path)
 
 
