@@ -425,19 +425,10 @@ def _certain_hits(  # type: ignore[no-untyped-def]
         tv = np.empty(3)
         seen = np.zeros((n_comp, 2), np.bool_)
         for c in range(chunk * per, min(C, (chunk + 1) * per)):
-            for k in range(variables.shape[0]):
-                q[variables[k]] = centres[c, k]
-            fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
-            U = T[upper]
-            L = T[lower]
-            for i in range(3):
-                for j in range(3):
-                    R[i, j] = U[0, i] * L[0, j] + U[1, i] * L[1, j] + U[2, i] * L[2, j]
-                tv[i] = (
-                    U[0, i] * (L[0, 3] - U[0, 3])
-                    + U[1, i] * (L[1, 3] - U[1, 3])
-                    + U[2, i] * (L[2, 3] - U[2, 3])
-                )
+            _cell_pose(
+                centres[c], variables, q, joints, root, parent, child, origin, jtype, axis,
+                var, mult, offset, T, upper, lower, R, tv,
+            )  # fmt: skip
             seen[:] = False
             for v in range(V.shape[0]):
                 x = R[0, 0] * V[v, 0] + R[0, 1] * V[v, 1] + R[0, 2] * V[v, 2] + tv[0]
@@ -505,6 +496,28 @@ def _clear_by_coal(
     return ~hit
 
 
+@njit(cache=True, inline="always")
+def _cell_pose(  # type: ignore[no-untyped-def]
+    angles, variables, q, joints, root, parent, child, origin, jtype, axis, var, mult, offset,
+    T, upper, lower, R, tv,
+):  # fmt: skip
+    """The lower link's frame in the upper's at ``angles`` of ``variables`` (q holds the rest):
+    R = Ru^T Rl, tv = Ru^T (tl - tu), into R and tv (T: scratch for the link poses)."""
+    for k in range(variables.shape[0]):
+        q[variables[k]] = angles[k]
+    fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
+    U = T[upper]
+    L = T[lower]
+    for i in range(3):
+        for j in range(3):
+            R[i, j] = U[0, i] * L[0, j] + U[1, i] * L[1, j] + U[2, i] * L[2, j]
+        tv[i] = (
+            U[0, i] * (L[0, 3] - U[0, 3])
+            + U[1, i] * (L[1, 3] - U[1, 3])
+            + U[2, i] * (L[2, 3] - U[2, 3])
+        )
+
+
 @njit(cache=True, parallel=True)
 def _cell_verdicts(  # type: ignore[no-untyped-def]
     centres,
@@ -566,20 +579,10 @@ def _cell_chunk(
     R = np.empty((3, 3))
     tv = np.empty(3)
     for c in range(c0, c1):
-        for k in range(variables.shape[0]):
-            q[variables[k]] = centres[c, k]
-        fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
-        U = T[upper]
-        L = T[lower]
-        # the lower link's frame in the upper's: R = Ru^T Rl, t = Ru^T (tl - tu)
-        for i in range(3):
-            for j in range(3):
-                R[i, j] = U[0, i] * L[0, j] + U[1, i] * L[1, j] + U[2, i] * L[2, j]
-            tv[i] = (
-                U[0, i] * (L[0, 3] - U[0, 3])
-                + U[1, i] * (L[1, 3] - U[1, 3])
-                + U[2, i] * (L[2, 3] - U[2, 3])
-            )
+        _cell_pose(
+            centres[c], variables, q, joints, root, parent, child, origin, jtype, axis, var,
+            mult, offset, T, upper, lower, R, tv,
+        )  # fmt: skip
         verdict = TABLE_FREE
         # HIT: inner spheres overlapping by more than the margin
         for s in range(inner_start[d], inner_start[d + 1]):
