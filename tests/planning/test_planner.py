@@ -23,10 +23,12 @@ from tests.planning.conftest import GOAL, START
 
 
 def _assert_valid(scene, group, plan):
-    """The plan's executed path is collision-free, exactly, at the planner's validation
-    resolution (what its final check guarantees: a sliver of an obstacle thinner than that,
-    between two checked states, can slip through; seen once, 4 mrad of a wall's edge), and
-    the trajectory follows that path within the limits."""
+    """The plan's path as executed (corners rounded as its trajectory rounds them) is
+    collision-free at the planner's validation resolution, exactly; the trajectory follows that
+    path within the limits; and 2000 samples of the trajectory are collision-free, exactly, but
+    for grazes under 1 mm. The final check is discrete, as MoveIt's: between two checked
+    states a thin part can skim an obstacle's edge (over 120 plans past this file's 4 cm wall,
+    8 grazed it with a finger, by 0.02-0.4 mm), never pass through it."""
     from scipy.spatial import cKDTree
 
     assert plan.success, plan.reason
@@ -38,6 +40,8 @@ def _assert_valid(scene, group, plan):
     assert np.abs(np.diff(states, axis=0)).max() < 0.02
     dense = path(np.linspace(0, path.length, max(2, int(path.length / 1e-4))))
     assert cKDTree(dense).query(states)[0].max() < 1e-3
+    for q in states[checker.check_exact(states)]:
+        assert checker.min_distance(q)[0] > -1e-3, checker.min_distance(q)
     assert traj.limit_violations(group) == []
 
 

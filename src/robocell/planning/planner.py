@@ -44,7 +44,11 @@ NATIVE_PLANNERS = ("", "rrtconnect", "robocell")
 class PlannerConfig:
     """Planner settings. Resolutions are the largest joint step [rad or m] between two checked
     states: ``resolution`` while planning, ``validation_resolution`` for the final check of
-    the path as it will be executed (rounded corners included)."""
+    the path as it will be executed (rounded corners included). Both checks are discrete, as
+    MoveIt's and OMPL's are: between two checked states a thin part can skim an obstacle's
+    edge (IRB 120 past a 4 cm wall: 8 of 120 plans grazed it with a finger, by 0.02–0.4 mm;
+    halving ``validation_resolution`` left 5 of them, the slivers being narrower than 1 mrad
+    of the path)."""
 
     resolution: float = 0.05
     validation_resolution: float = 0.01

@@ -40,6 +40,8 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from robocell.kinematics._kernels import fk_into
 from robocell.kinematics.fk import tree_args
@@ -346,27 +348,16 @@ def _exact_meshes(
     if np.any(np.unique(edges, axis=0, return_counts=True)[1] != 2):
         return None
     V, Fd = _merged(td)
-    # connected pieces of d's surface: union-find over the faces' vertices
-    parent = np.arange(len(V))
-
-    def root(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = int(parent[i])
-        return i
-
-    for a, b, c in Fd:
-        ra, rb, rc = root(int(a)), root(int(b)), root(int(c))
-        parent[rb] = ra
-        parent[rc] = ra
-    roots = np.array([root(i) for i in range(len(V))])
-    _, comp = np.unique(roots, return_inverse=True)
+    # connected pieces of d's surface: the components of its faces' edge graph
+    rows, cols = Fd[:, [0, 1]].ravel(), Fd[:, [1, 2]].ravel()
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(V), len(V)))
+    n, comp = connected_components(graph, directed=False)
     go, gh, gd = packed.fields[1][f], float(packed.fields[3][f]), packed.fields[4][f]
     # two rays per grid column, a hair apart: a point where they disagree is not used
     a = _inside_by_parity(go, gh, gd, tf, 1.2345e-4 * gh, 0.7654e-4 * gh)  # type: ignore[call-arg]
     b = _inside_by_parity(go, gh, gd, tf, -0.9876e-4 * gh, 1.3579e-4 * gh)  # type: ignore[call-arg]
     inside = np.where(a == b, a, 2).astype(np.uint8)
-    return V, comp.astype(np.int64), int(comp.max()) + 1, inside
+    return V, comp.astype(np.int64), int(n), inside
 
 
 @njit(cache=True, parallel=True)
