@@ -29,3 +29,8 @@ def test_demo_sorts_layout_0_in_kinematic_mode_by_shape(capsys):
     assert "8/8 objects in their trays" in out
     for name in ("yellow_box", "red_box", "blue_box"):
         assert any(line.startswith(name) and "red_tray" in line for line in out.splitlines())
+
+
+def test_bench_planning_names_an_unknown_baseline(capsys):
+    assert main(["bench", "planning", "--limit", "1", "--baseline", "ompl,moveit"]) == 1
+    assert "unknown baseline 'moveit'; known: ompl, ompl-kernel" in capsys.readouterr().err

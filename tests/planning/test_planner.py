@@ -199,10 +199,11 @@ def test_attempts_keep_the_shortest(walled):
     assert many.success and many.path_length <= one.path_length + 1e-9
 
 
-def test_ompl_backend(walled):
+@pytest.mark.parametrize("state_check", ["kernel", "exact"])
+def test_ompl_backend(walled, state_check):
     pytest.importorskip("ompl")
     arm = walled.robot.group("arm")
-    plan = Planner(walled).plan(
+    plan = Planner(walled, PlannerConfig(ompl_state_check=state_check)).plan(
         MotionPlanRequest(
             "arm",
             JointGoal(GOAL),
@@ -212,3 +213,12 @@ def test_ompl_backend(walled):
         )
     )
     _assert_valid(walled, arm, plan)
+
+
+def test_ompl_state_check_must_be_known(walled):
+    pytest.importorskip("ompl")
+    request = MotionPlanRequest(
+        "arm", JointGoal(GOAL), start=START, planner_id="RRTConnectkConfigDefault"
+    )
+    with pytest.raises(PlanningError, match=r"'fcl'.*known: kernel, exact"):
+        Planner(walled, PlannerConfig(ompl_state_check="fcl")).plan(request)

@@ -147,6 +147,28 @@ def _exact_agrees(checker, qs):
     return fast, exact, free_but_hit
 
 
+def test_exact_check_of_one_state_agrees_with_the_batch(scene, irb120):
+    """check_exact_one (coal through a broad phase, one state per call) answers as the
+    batched exact check does, on random states and on states within 0.1 mrad of contact."""
+    scene.add_sphere("ball", Pose((0.3, -0.3, 0.4)), 0.08)
+    scene.add_shape("post", Cylinder(0.05, 0.8), Pose((-0.3, 0.3, 0.4)))
+    arm = irb120.group("arm")
+    checker = scene.checker(arm)
+    qs = arm.random(np.random.default_rng(3), 400)
+    exact = checker.check_exact(qs)
+    free, hit = qs[~exact][:20], qs[exact][:20]
+    near = []
+    for a, b in zip(free, hit, strict=True):  # bisect each free-hit pair to the contact
+        for _ in range(14):
+            m = (a + b) / 2
+            a, b = (a, m) if checker.check_exact(m[None])[0] else (m, b)
+        near += [a, b]
+    qs = np.vstack([qs, near])
+    one = np.array([checker.check_exact_one(q) for q in qs])
+    assert np.array_equal(one, checker.check_exact(qs))
+    assert one[-40:].sum() == 20  # both sides of every contact
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_fast_check_never_calls_a_colliding_state_free(scene, irb120, seed):
     scene.add_sphere("ball", Pose((0.3, -0.3, 0.4)), 0.08)

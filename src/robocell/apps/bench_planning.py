@@ -1,6 +1,14 @@
 """``robocell bench planning``: the MotionBenchMaker problems (../shared/bench/mbm), planned
-with the native planner and, with ``--baseline ompl``, with OMPL's RRTConnect through the same
-checker in the same run. Prints one row per set; ``--json`` writes every problem's figures.
+with the native planner and, with ``--baseline``, with OMPL's RRTConnect in the same run. Prints
+one row per set and planner; ``--json`` writes every problem's figures.
+
+Baselines (``--baseline ompl,ompl-kernel``), both with the native planner's shortcut and final
+check after OMPL's search, so that only the search differs:
+
+- ``ompl``: OMPL's RRTConnect checking each state exactly, coal alone through a broad phase
+  (``CollisionChecker.check_exact_one``), as MoveIt's OMPL pipeline does with FCL.
+- ``ompl-kernel``: OMPL's RRTConnect checking each state with robocell's two-level checker
+  (spheres, then coal where they are unsure), one state per call: the search alone compared.
 
 Planning time is from the request to the validated path (goal resolution, planning,
 shortcutting, the final check at fine resolution); scene loading and the checker's
@@ -17,11 +25,17 @@ from pathlib import Path
 
 import numpy as np
 
-from robocell.errors import RobocellError
-from robocell.planning import JointGoal, MotionPlanRequest, Planner
+from robocell.errors import PlanningError, RobocellError
+from robocell.planning import JointGoal, MotionPlanRequest, Planner, PlannerConfig
 from robocell.planning.rrt import warm_up
 from robocell.robot.model import RobotModel
 from robocell.scene.moveit_yaml import load_request, load_scene
+
+# baseline name -> OMPL planner and how its callback checks a state
+BASELINES = {
+    "ompl": ("RRTConnectkConfigDefault", "exact"),
+    "ompl-kernel": ("RRTConnectkConfigDefault", "kernel"),
+}
 
 
 @dataclass
@@ -97,14 +111,15 @@ def run_set(
         for p in planners:
             r = ProblemResult(robot, set_name, k, p or "robocell", valid)
             if valid:
-                planner = Planner(scene)
+                planner_id, state_check = BASELINES[p] if p else ("", "kernel")
+                planner = Planner(scene, PlannerConfig(ompl_state_check=state_check))
                 request = MotionPlanRequest(
                     req.group,
                     JointGoal(req.goal),
                     start=req.start,
                     planning_time=timeout,
                     seed=seed + k,
-                    planner_id=p,
+                    planner_id=planner_id,
                     time_parameterize=False,
                 )
                 t0 = time.perf_counter()
@@ -138,18 +153,22 @@ def run(
     sets: list[str],
     limit: int = 50,
     timeout: float = 1.0,
-    baseline: str | None = None,
+    baselines: list[str] | None = None,
     json_path: str | None = None,
     mbm: str | None = None,
     seed: int = 0,
 ) -> int:
     base = Path(mbm) if mbm else default_mbm_dir()
-    planners = [""] + (["RRTConnectkConfigDefault"] if baseline == "ompl" else [])
+    baselines = baselines or []
+    for b in baselines:
+        if b not in BASELINES:
+            raise PlanningError(f"unknown baseline {b!r}; known: {', '.join(BASELINES)}")
+    planners = ["", *baselines]
     header = (
-        f"{'robot':6} {'set':17} {'planner':10} {'probs':>5} {'valid':>5} {'solved':>6} "
+        f"{'robot':6} {'set':17} {'planner':11} {'probs':>5} {'valid':>5} {'solved':>6} "
         f"{'median ms':>10} {'p95 ms':>9} {'length':>7}"
     )
-    if baseline:
+    if baselines:
         header += f" {'speed-up':>9}"
     print(f"planning time budget {timeout} s per problem, first {limit} problems per set")
     print(header)
@@ -163,11 +182,11 @@ def run(
             for p in planners:
                 row = rows[p]
                 line = (
-                    f"{robot:6} {s:17} {row.planner[:10]:10} {row.problems:5d} {row.valid:5d} "
+                    f"{robot:6} {s:17} {row.planner:11} {row.problems:5d} {row.valid:5d} "
                     f"{row.solved:6d} {row.median_ms:10.2f} {row.p95_ms:9.2f} "
                     f"{row.median_length:7.2f}"
                 )
-                if baseline and p:
+                if p:
                     line += f" {row.median_ms / native.median_ms:8.1f}x"
                 print(line, flush=True)
                 all_rows.append(row)

@@ -42,7 +42,13 @@ def main(argv: list[str] | None = None) -> int:
     bp.add_argument("--sets", default=",".join(SETS), help="comma-separated problem sets")
     bp.add_argument("--limit", type=int, default=50, help="problems per set (first N)")
     bp.add_argument("--timeout", type=float, default=1.0, help="planning time per problem [s]")
-    bp.add_argument("--baseline", choices=["ompl"], help="also plan with OMPL's RRTConnect")
+    bp.add_argument(
+        "--baseline",
+        default="",
+        help="comma-separated, also plan with: ompl (OMPL's RRTConnect, states checked "
+        "exactly by coal, as MoveIt with FCL), ompl-kernel (OMPL's RRTConnect on robocell's "
+        "checker)",
+    )
     bp.add_argument("--json", help="write every problem's figures to this file")
     bp.add_argument("--mbm", help="folder holding ur5/ and panda/ (default: ../shared/bench/mbm)")
     bp.add_argument("--seed", type=int, default=0)
@@ -73,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
                 [x.strip() for x in args.sets.split(",") if x.strip()],
                 args.limit,
                 args.timeout,
-                args.baseline,
+                [b.strip() for b in args.baseline.split(",") if b.strip()],
                 args.json,
                 args.mbm,
                 args.seed,

@@ -3,7 +3,9 @@
 Planners are chosen by the names MoveIt's ompl_planning.yaml uses (``RRTConnectkConfigDefault``,
 ``RRTstarkConfigDefault``, …) or by their OMPL class name. States are checked one at a time
 through the same :class:`~robocell.scene.CollisionChecker`, with OMPL's motion validator at a
-resolution at least as fine as the native planner's.
+resolution at least as fine as the native planner's: by default through the checker's fast
+two-level check, or (``state_check="exact"``) by coal alone through a broad phase, as MoveIt's
+FCL environment checks them.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ PLANNERS = {
 
 
 _SEEDED = False
+STATE_CHECKS = ("kernel", "exact")
 
 
 def _class_name(name: str) -> str | None:
@@ -60,9 +63,16 @@ def plan(
     upper: NDArray[np.float64],
     deadline: float,
     seed: int,
+    state_check: str = "kernel",
 ) -> NDArray[np.float64] | None:
     """A path (K, dof) from ``start`` to one of ``goals`` found by OMPL planner ``name``, or None
-    when none is found before ``deadline``."""
+    when none is found before ``deadline``. ``state_check``: how OMPL's callback checks a
+    state, ``"kernel"`` (the checker's two-level check: spheres, then coal where they are
+    unsure) or ``"exact"`` (coal alone, :meth:`CollisionChecker.check_exact_one`)."""
+    if state_check not in STATE_CHECKS:
+        raise PlanningError(
+            f"unknown OMPL state check {state_check!r}; known: {', '.join(STATE_CHECKS)}"
+        )
     try:
         from ompl import base as ob
         from ompl import geometric as og
@@ -94,7 +104,13 @@ def plan(
         edges.stats.states += 1
         return not bool(checker.check(buf)[0])
 
-    ss.setStateValidityChecker(valid)
+    def valid_exact(state: object) -> bool:
+        for i in range(dof):
+            buf[0, i] = state[i]  # type: ignore[index]
+        edges.stats.states += 1
+        return not checker.check_exact_one(buf[0])  # type: ignore[attr-defined]
+
+    ss.setStateValidityChecker(valid if state_check == "kernel" else valid_exact)
     si = ss.getSpaceInformation()
     # OMPL's resolution is a fraction of the space's extent, in its (L2) distance
     si.setStateValidityCheckingResolution(edges.resolution / space.getMaximumExtent())

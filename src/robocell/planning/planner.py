@@ -73,6 +73,9 @@ class PlannerConfig:
     ik_timeout: float = 0.05
     numeric_goal_solutions: int = 4
     fix_start_radius: float = 0.2
+    # how an OMPL planner's state validity callback checks a state: "kernel" (the checker's
+    # two-level check) or "exact" (coal alone through a broad phase, as MoveIt's FCL does)
+    ompl_state_check: str = "kernel"
 
 
 class Planner:
@@ -355,6 +358,7 @@ class Planner:
             group.upper,
             deadline,
             int(rng.integers(2**31)),
+            self.config.ompl_state_check,
         )
 
     def _shortcut(
