@@ -10,6 +10,8 @@ FCL environment checks them.
 
 from __future__ import annotations
 
+import functools
+import math
 import time
 
 import numpy as np
@@ -98,22 +100,29 @@ def plan(
     checker = edges.checker
     buf = np.empty((1, dof))
 
+    def free(q: NDArray[np.float64]) -> bool:
+        edges.stats.states += 1
+        if state_check == "kernel":
+            return not bool(checker.check(q[None])[0])
+        return not checker.check_exact_one(q)  # type: ignore[attr-defined]
+
     def valid(state: object) -> bool:
         for i in range(dof):
             buf[0, i] = state[i]  # type: ignore[index]
-        edges.stats.states += 1
-        return not bool(checker.check(buf)[0])
+        return free(buf[0])
 
-    def valid_exact(state: object) -> bool:
-        for i in range(dof):
-            buf[0, i] = state[i]  # type: ignore[index]
-        edges.stats.states += 1
-        return not checker.check_exact_one(buf[0])  # type: ignore[attr-defined]
-
-    ss.setStateValidityChecker(valid if state_check == "kernel" else valid_exact)
+    ss.setStateValidityChecker(valid)
     si = ss.getSpaceInformation()
-    # OMPL's resolution is a fraction of the space's extent, in its (L2) distance
-    si.setStateValidityCheckingResolution(edges.resolution / space.getMaximumExtent())
+    if cls_name == "RRTConnect":
+        # its edges checked at the native planner's resolution, per joint (L∞), in OMPL's
+        # order (the end, then midpoints): the same states per edge as the native search
+        motions = _MotionValidator(si, free, dof, edges.resolution)
+        si.setMotionValidator(motions)
+    else:
+        # other planners also ask OMPL's validator for the last valid state of an edge,
+        # which a validator written in Python cannot give; OMPL's resolution is a fraction
+        # of the space's extent in its (L2) distance, at least as fine per joint
+        si.setStateValidityCheckingResolution(edges.resolution / space.getMaximumExtent())
     st = space.allocState()
     for i in range(dof):
         st[i] = float(start[i])
@@ -135,3 +144,37 @@ def plan(
     path = ss.getSolutionPath()
     out = np.array([[path.getState(k)[i] for i in range(dof)] for k in range(path.getStateCount())])
     return out
+
+
+@functools.lru_cache(maxsize=256)
+def _bisection_order(n: int) -> tuple[int, ...]:
+    """1 … n in the order OMPL's discrete motion validator checks an edge's states: the end
+    (n) first, then the midpoints of ever smaller intervals."""
+    order = [n]
+    queue = [(1, n - 1)]
+    while queue:
+        lo, hi = queue.pop(0)
+        if lo > hi:
+            continue
+        mid = (lo + hi) // 2
+        order.append(mid)
+        queue += [(lo, mid - 1), (mid + 1, hi)]
+    return tuple(order)
+
+
+def _MotionValidator(si: object, free: object, dof: int, resolution: float) -> object:
+    """An OMPL motion validator checking an edge's states at most ``resolution`` apart per
+    joint (L∞, as the native planner does) with ``free(q)``, in :func:`_bisection_order`."""
+    from ompl import base as ob
+
+    class MotionValidator(ob.MotionValidator):  # type: ignore[misc]
+        def checkMotion(self, s1: object, s2: object) -> bool:  # noqa: N802 (OMPL's name)
+            a = np.array([s1[i] for i in range(dof)])  # type: ignore[index]
+            b = np.array([s2[i] for i in range(dof)])  # type: ignore[index]
+            n = max(1, math.ceil(float(np.abs(b - a).max()) / resolution))
+            for k in _bisection_order(n):
+                if not free(a + (k / n) * (b - a)):  # type: ignore[operator]
+                    return False
+            return True
+
+    return MotionValidator(si)
