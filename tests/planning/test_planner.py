@@ -222,3 +222,46 @@ def test_ompl_state_check_must_be_known(walled):
     )
     with pytest.raises(PlanningError, match=r"'fcl'.*known: kernel, exact"):
         Planner(walled, PlannerConfig(ompl_state_check="fcl")).plan(request)
+
+
+def test_ompl_edges_are_checked_as_the_native_planner_checks_them():
+    """OMPL's RRTConnect checks an edge's states at the native resolution per joint, every
+    one of them once, the end first and then midpoints (OMPL's order)."""
+    from robocell.planning.ompl_backend import _bisection_order
+
+    assert _bisection_order(1) == (1,)
+    assert _bisection_order(7) == (7, 3, 1, 5, 2, 4, 6)
+    for n in (2, 13, 64):
+        order = _bisection_order(n)
+        assert order[0] == n and sorted(order) == list(range(1, n + 1))
+
+
+def test_ompl_motion_validator_checks_per_joint_steps_and_stops_at_a_collision():
+    pytest.importorskip("ompl")
+    from ompl import base as ob
+
+    from robocell.planning.ompl_backend import _MotionValidator
+
+    space = ob.RealVectorStateSpace(2)
+    bounds = ob.RealVectorBounds(2)
+    bounds.setLow(-2.0)
+    bounds.setHigh(2.0)
+    space.setBounds(bounds)
+    si = ob.SpaceInformation(space)
+    seen = []
+    wall = 0.25  # states with x in [0.25, 0.3] collide
+
+    def free(q):
+        seen.append(q.copy())
+        return not (wall <= q[0] <= 0.3)
+
+    validator = _MotionValidator(si, free, 2, 0.05)
+    a, b = space.allocState(), space.allocState()
+    a[0], a[1], b[0], b[1] = 0.0, 0.0, 0.2, -0.1  # 4 steps of 0.05 in x
+    assert validator.checkMotion(a, b)
+    xs = [round(float(q[0]), 6) for q in seen]
+    assert xs == [0.2, 0.1, 0.05, 0.15]  # the end, then midpoints; the start not checked
+    seen.clear()
+    b[0] = 0.6  # 12 steps; the end is free, the wall is crossed
+    assert not validator.checkMotion(a, b)
+    assert wall <= seen[-1][0] <= 0.3 and len(seen) < 12  # stopped at the first collision
