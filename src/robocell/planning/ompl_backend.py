@@ -2,10 +2,10 @@
 
 Planners are chosen by the names MoveIt's ompl_planning.yaml uses (``RRTConnectkConfigDefault``,
 ``RRTstarkConfigDefault``, …) or by their OMPL class name. States are checked one at a time
-through the same :class:`~robocell.scene.CollisionChecker`, with OMPL's motion validator at a
-resolution at least as fine as the native planner's: by default through the checker's fast
-two-level check, or (``state_check="exact"``) by coal alone through a broad phase, as MoveIt's
-FCL environment checks them.
+through the same :class:`~robocell.scene.CollisionChecker`: by default with its fast two-level
+check, or (``state_check="exact"``) by coal alone through a broad phase, as MoveIt's FCL
+environment checks them. RRTConnect's edges are checked at the native planner's per-joint
+resolution; other planners use OMPL's own motion validator at a resolution at least as fine.
 """
 
 from __future__ import annotations
@@ -100,11 +100,15 @@ def plan(
     checker = edges.checker
     buf = np.empty((1, dof))
 
+    collides = (
+        (lambda q: bool(checker.check(q[None])[0]))
+        if state_check == "kernel"
+        else checker.check_exact_one  # type: ignore[attr-defined]
+    )
+
     def free(q: NDArray[np.float64]) -> bool:
         edges.stats.states += 1
-        if state_check == "kernel":
-            return not bool(checker.check(q[None])[0])
-        return not checker.check_exact_one(q)  # type: ignore[attr-defined]
+        return not collides(q)
 
     def valid(state: object) -> bool:
         for i in range(dof):
@@ -116,8 +120,7 @@ def plan(
     if cls_name == "RRTConnect":
         # its edges checked at the native planner's resolution, per joint (L∞), in OMPL's
         # order (the end, then midpoints): the same states per edge as the native search
-        motions = _MotionValidator(si, free, dof, edges.resolution)
-        si.setMotionValidator(motions)
+        si.setMotionValidator(_motion_validator(si, free, dof, edges.resolution))
     else:
         # other planners also ask OMPL's validator for the last valid state of an edge,
         # which a validator written in Python cannot give; OMPL's resolution is a fraction
@@ -162,7 +165,7 @@ def _bisection_order(n: int) -> tuple[int, ...]:
     return tuple(order)
 
 
-def _MotionValidator(si: object, free: object, dof: int, resolution: float) -> object:
+def _motion_validator(si: object, free: object, dof: int, resolution: float) -> object:
     """An OMPL motion validator checking an edge's states at most ``resolution`` apart per
     joint (L∞, as the native planner does) with ``free(q)``, in :func:`_bisection_order`."""
     from ompl import base as ob
