@@ -78,7 +78,7 @@ def test_repair_steps_around_an_obstacle_the_coarse_check_stepped_over(irb120):
     else:
         pytest.fail("no ball position that only the fine check sees")
     planner = Planner(scene)
-    via = planner._detour(Edges(checker, 0.01), a, b, arm, np.random.default_rng(0), (a + b) / 2)
+    via = planner._detour(checker, a, b, arm, np.random.default_rng(0), (a + b) / 2)
     assert via is not None
     for p, q in ((a, via), (via, b)):
         assert not checker.check_exact(Edges(None, 0.005).states(p, q, include_start=True)).any()
@@ -108,8 +108,15 @@ def test_validation_names_the_segments_that_collide(walled):
             states = fine.states(a, b)
             hit = checker.check(states)
             assert (k in hits) == hit.any()
-            if hit.any():  # the segment's first colliding state
-                assert np.allclose(hits[k], states[np.argmax(hit)])
+            if hit.any():
+                # the segment's first colliding state, and the free states either side of
+                # where it collides
+                first, last = np.flatnonzero(hit)[[0, -1]]
+                assert np.allclose(hits[k].first, states[first])
+                assert np.allclose(hits[k].before, states[first - 1] if first else a)
+                assert np.allclose(hits[k].after, states[min(last + 1, len(states) - 1)])
+                if not checker.check(np.array([a, b])).any():  # else an end is what collides
+                    assert not checker.check(np.array([hits[k].before, hits[k].after])).any()
         assert ok == (not hits)
         assert (len(bad) > 0) == (not ok)
         seen.add(len(hits))
@@ -151,3 +158,15 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
             )
             assert np.array_equal(path, alone[best][1])
     assert winners == {0, 1}  # either seed won, in some problem
+
+
+def test_compiled_clock_reads_perf_counter():
+    """The compiled searches compare their clock with deadlines from time.perf_counter."""
+    import time
+
+    from robocell.planning import _kernels as PK
+
+    before = time.perf_counter()
+    t = PK._clock()
+    after = time.perf_counter()
+    assert before <= t <= after

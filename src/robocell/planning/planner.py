@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -381,24 +382,36 @@ class Planner:
         group: JointGroup,
         rng: np.random.Generator,
         deadline: float,
-        hits: dict[int, NDArray[np.float64]] | None = None,
+        hits: dict[int, Hit] | None = None,
     ) -> NDArray[np.float64] | None:
-        """``path`` with each segment that collides at the validation resolution replaced by a
-        path between its ends at that resolution: a detour through one waypoint near where it
-        first collides if one is found, else a search; None if neither succeeds. ``hits``: the
-        first colliding state of each segment that collides, as :meth:`_validate` found them
-        (checked here if not given)."""
-        fine = Edges(checker, self.config.validation_resolution)
+        """``path`` with each segment that collides at the validation resolution mended at
+        that resolution: the stretch between the free states either side of where it
+        collides replaced by a detour through one waypoint, else the whole segment by such a
+        detour, else by a search between its ends; None if none succeeds. ``hits``: where
+        each segment that collides does, as :meth:`_validate` found them (checked here if not
+        given). Over 40 UR5 bookshelf_thin plans, 18 needed a repair: detours around the
+        stretch alone took them from 60 to 17 ms in all (the ends of the stretch lie close
+        together, so a detour's checks are few)."""
+        res = self.config.validation_resolution
         if hits is None:
-            hits = _first_hits(checker, path, fine.resolution)
+            hits = _first_hits(checker, path, res)
+        fine = Edges(checker, res)
         out = [path[0]]
         for k, (a, b) in enumerate(zip(path[:-1], path[1:], strict=True)):
             if k not in hits:
                 out.append(b)
                 continue
-            via = self._detour(fine, a, b, group, rng, hits[k])
+            hit = hits[k]
+            # around the stretch that collides (a → before and after → b are pieces of the
+            # segment, free already), else from end to end
+            for p0, p1 in ((hit.before, hit.after), (a, b)):
+                via = self._detour(checker, p0, p1, group, rng, hit.first)
+                if via is not None:
+                    for p in (p0, via, p1, b):
+                        if np.any(p != out[-1]):
+                            out.append(p)
+                    break
             if via is not None:
-                out.extend([via, b])
                 continue
             sub = self._solve("", fine, a, b[None, :], group, rng, deadline)
             if sub is None:
@@ -408,7 +421,7 @@ class Planner:
 
     def _detour(
         self,
-        fine: Edges,
+        checker: CollisionChecker,
         a: NDArray[np.float64],
         b: NDArray[np.float64],
         group: JointGroup,
@@ -416,23 +429,36 @@ class Planner:
         near: NDArray[np.float64],
         tries: int = 24,
     ) -> NDArray[np.float64] | None:
-        """A waypoint near ``near`` (a state of a → b) through which both halves are free at
-        the fine resolution, or None. A segment the search found free at its coarser
-        resolution usually clips an obstacle between two checked states only: a small step
-        aside there clears it, for a few checks instead of a search (radii from 0.02 to 0.4
-        rad)."""
-        for radius in np.geomspace(0.02, 0.4, tries):
-            via = np.clip(near + rng.uniform(-radius, radius, group.dof), group.lower, group.upper)
-            if fine.free(a, via) and fine.free(via, b):
-                return via
-        return None
+        """A waypoint near ``near`` through which a → waypoint → b is free at the validation
+        resolution, or None. A segment the search found free at its coarser resolution
+        usually clips an obstacle between two checked states only: a small step aside there
+        clears it, for a few checks instead of a search (radii from 0.02 to 0.4 rad; compiled,
+        as a state the kernel leaves unsure blocks a try)."""
+        from robocell.planning import _kernels as PK
+        from robocell.scene.checker import next_epoch
+
+        model, scratch = checker.kernel_inputs()
+        found, via, _ = PK.detour(
+            np.ascontiguousarray(a, dtype=float),
+            np.ascontiguousarray(b, dtype=float),
+            np.ascontiguousarray(near, dtype=float),
+            np.ascontiguousarray(group.lower, dtype=float),
+            np.ascontiguousarray(group.upper, dtype=float),
+            np.geomspace(0.02, 0.4, tries),
+            int(rng.integers(2**31)),
+            self.config.validation_resolution,
+            model,
+            scratch,
+            next_epoch(1 << 40),
+        )
+        return via if found else None
 
     def _validate(
         self,
         checker: CollisionChecker,
         path: NDArray[np.float64],
         segments_checked: bool = False,
-    ) -> tuple[bool, float, NDArray[np.float64], dict[int, NDArray[np.float64]]]:
+    ) -> tuple[bool, float, NDArray[np.float64], dict[int, Hit]]:
         """Check the path as it will be executed at the validation resolution: (valid, corner
         deviation to execute it with, the first colliding state or an empty array, the first
         colliding state of each straight segment that collides).
@@ -448,7 +474,7 @@ class Planner:
             hits = _first_hits(checker, path, res)
             if hits:
                 # naming the colliding pair costs as much as the check: the caller does it
-                return False, 0.0, hits[min(hits)], hits
+                return False, 0.0, hits[min(hits)].first, hits
         dev = self.config.max_deviation
         if dev > 0 and len(path) > 2:
             arcs = BlendedPath(path, dev).sample_states(res, arcs_only=True)
@@ -457,15 +483,29 @@ class Planner:
         return True, dev, np.empty(0), {}
 
 
+class Hit(NamedTuple):
+    """Where a straight segment of a path collides at some resolution: its first colliding
+    state, and the free states just before the first and just after the last colliding one
+    (the segment's ends at most)."""
+
+    first: NDArray[np.float64]
+    before: NDArray[np.float64]
+    after: NDArray[np.float64]
+
+
 def _first_hits(
     checker: CollisionChecker, path: NDArray[np.float64], resolution: float
-) -> dict[int, NDArray[np.float64]]:
-    """The first colliding state of each of the path's straight segments that collides at
-    ``resolution``, by segment index (all states checked in one batch)."""
+) -> dict[int, Hit]:
+    """Where each of the path's straight segments that collides at ``resolution`` does, by
+    segment index (all states checked in one batch)."""
     states, segment = _segment_states(path, resolution)
-    hits: dict[int, NDArray[np.float64]] = {}
-    for i in np.flatnonzero(checker.check(states))[::-1]:  # each segment's first last
-        hits[int(segment[i])] = states[i]
+    hit = np.flatnonzero(checker.check(states))
+    hits: dict[int, Hit] = {}
+    for k in np.unique(segment[hit]):
+        on = hit[segment[hit] == k]
+        end = int(np.searchsorted(segment, k, side="right")) - 1  # the segment's last state
+        # the state before a segment's first is the previous segment's last: its start
+        hits[int(k)] = Hit(states[on[0]], states[on[0] - 1], states[min(on[-1] + 1, end)])
     return hits
 
 

@@ -294,7 +294,8 @@ def warm_up(checker: BatchChecker) -> None:
         next_epoch(1 << 20), 16, slot, found, 0, q - 1, q + 1, 0.5,
     ).result()  # fmt: skip
     PK.shortcut(np.array([q, q + 0.01]), 0, 0.0, 0.05, model, scratch, next_epoch(1 << 20), 1, 1)
-    PK._clock()  # numba's object mode costs 50 ms on its first call (measured)
+    PK.detour(q, q, q, q - 1, q + 1, np.zeros(1), 0, 0.05, model, scratch, next_epoch(1 << 20))
+    PK._clock()  # through numba's object mode (off Linux), 50 ms on its first call (measured)
     _WARM[0] = True
 
 
