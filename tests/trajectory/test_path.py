@@ -51,6 +51,24 @@ def test_sample_states_respects_resolution(waypoints):
     assert np.abs(np.diff(pts, axis=0)).max() <= 0.01 + 1e-12
 
 
+def test_arc_states_are_the_rounded_corners_points(waypoints):
+    """arc_states (the planner's final check of the corners) samples the arcs BlendedPath
+    executes: the same points, and only those off the straight segments."""
+    from robocell.trajectory.path import arc_states
+
+    wp = waypoints.copy()
+    wp[3] = wp[2] - (wp[1] - wp[2])  # a reversal: left sharp, no arc
+    for dev in (0.0, 0.02, 0.1):
+        bp = BlendedPath(wp, dev)
+        got = arc_states(wp, dev, 0.01)
+        want = bp.sample_states(0.01, arcs_only=True)
+        assert np.allclose(np.unique(got.round(9), axis=0), np.unique(want.round(9), axis=0))
+        if dev == 0:
+            assert len(got) == 0
+        else:  # the arcs stay within the deviation of the polyline
+            assert _polyline_distance(got, wp).max() <= dev + 1e-9
+
+
 def test_sharp_corners_are_stops(waypoints):
     assert len(BlendedPath(waypoints, 0.0).stops) == len(waypoints) - 2
     assert BlendedPath(waypoints, 0.05).stops == []

@@ -35,7 +35,7 @@ from robocell.planning.rrt import (
 from robocell.robot.model import JointGroup
 from robocell.scene.checker import CollisionChecker
 from robocell.scene.planning_scene import PlanningScene
-from robocell.trajectory.path import BlendedPath
+from robocell.trajectory.path import BlendedPath, arc_states
 from robocell.trajectory.timing import time_optimal
 
 NATIVE_PLANNERS = ("", "rrtconnect", "robocell")
@@ -481,7 +481,7 @@ class Planner:
                 return False, 0.0, hits[min(hits)].first, hits
         dev = self.config.max_deviation
         if dev > 0 and len(path) > 2:
-            arcs = BlendedPath(path, dev).sample_states(res, arcs_only=True)
+            arcs = arc_states(path, dev, res)
             if len(arcs) and checker.check(arcs).any():
                 dev = 0.0
         return True, dev, np.empty(0), {}

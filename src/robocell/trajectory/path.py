@@ -9,6 +9,7 @@ corner the speed must drop to zero, at a rounded one it need not.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -83,47 +84,14 @@ class BlendedPath(_ArcLengthPath):
         data: list[tuple[NDArray[np.float64], ...]] = []
         lengths: list[float] = []
         n = wp.shape[0]
-        d = np.diff(wp, axis=0)
-        seg_len = np.linalg.norm(d, axis=1)
-        u = d / np.maximum(seg_len, 1e-300)[:, None]
+        u, seg_len, corners = _corner_arcs(wp, max_deviation, blend_length)
         # trim at each interior corner
         trim = np.zeros(n)
         arcs: dict[int, tuple[NDArray[np.float64], ...]] = {}
-        for i in range(1, n - 1):
-            u1, u2 = u[i - 1], u[i]
-            # turning angle; acos(u1·u2) reads 1.5e-8 rad for two equal directions, whose
-            # corner then had no direction to round towards (NaN)
-            alpha = 2.0 * math.atan2(float(np.linalg.norm(u2 - u1)), float(np.linalg.norm(u2 + u1)))
-            no_rounding = max_deviation <= 0 if blend_length is None else blend_length <= 0
-            if alpha < 1e-9 or no_rounding or seg_len[i - 1] < 1e-12 or seg_len[i] < 1e-12:
-                continue
-            if alpha > math.pi - 1e-6:
-                continue  # a reversal cannot be rounded; the motion stops there
-            half = 0.5 * alpha
-            # deviation of the arc's midpoint from the corner: r (1/cos(half) - 1)
-            # 1 − cos(half) written as 2 sin²(half/2): exact for tiny turns too
-            if blend_length is None:
-                r = max_deviation * math.cos(half) / (2.0 * math.sin(0.5 * half) ** 2)
-                ell = r * math.tan(half)
-                ell = min(ell, 0.5 * seg_len[i - 1], 0.5 * seg_len[i])
-            else:
-                # a blend may use a whole first or last segment (no other blend shares it),
-                # half of any other one (Pilz: blend spheres must not overlap)
-                def avail(k: int) -> float:
-                    end = k == 0 or k == n - 2
-                    return float(seg_len[k] * (1.0 - 1e-6) if end else 0.5 * seg_len[k])
-
-                ell = min(blend_length, avail(i - 1), avail(i))
-            r = ell / math.tan(half)
-            if ell < 1e-9:
-                continue
-            trim[i] = ell
-            x = u2 - u1
-            x /= np.linalg.norm(x)
-            centre = wp[i] + x * (r / math.cos(half))
-            start = wp[i] - ell * u1
-            e1 = (start - centre) / r
-            arcs[i] = (centre, e1, u1.copy(), np.array([r]), np.array([alpha]))
+        for j, i in enumerate(corners.waypoint):
+            trim[i] = corners.ell[j]
+            r, al = corners.radius[j : j + 1], corners.angle[j : j + 1]
+            arcs[int(i)] = (corners.centre[j], corners.e1[j], u[i - 1].copy(), r, al)
         for k in range(n - 1):
             a = wp[k] + trim[k] * u[k] if k > 0 else wp[k]
             length = seg_len[k] - (trim[k] if k > 0 else 0.0) - (trim[k + 1] if k + 1 < n else 0)
@@ -214,6 +182,95 @@ class BlendedPath(_ArcLengthPath):
         if not ss:
             return np.empty((0, self._dof))
         return self(np.unique(np.concatenate(ss)))
+
+
+class _Corners(NamedTuple):
+    """The rounded corners of a polyline: their ``waypoint`` (index), how far from it each arc
+    starts (``ell``), the arc's ``centre``, its unit vector from the centre to the arc's
+    start (``e1``; the incoming direction is the other axis of its plane), ``radius`` and
+    turning ``angle``."""
+
+    waypoint: NDArray[np.int64]
+    ell: NDArray[np.float64]
+    centre: NDArray[np.float64]
+    e1: NDArray[np.float64]
+    radius: NDArray[np.float64]
+    angle: NDArray[np.float64]
+
+
+def _corner_arcs(
+    wp: NDArray[np.float64], max_deviation: float, blend_length: float | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], _Corners]:
+    """The unit directions and lengths of the segments between waypoints ``wp`` (K, dof)
+    without repeats, and the arcs that round their interior corners, as BlendedPath
+    describes (all corners at once: the planner's final check samples them for every
+    path)."""
+    n = wp.shape[0]
+    d = np.diff(wp, axis=0)
+    seg_len = np.linalg.norm(d, axis=1)
+    u = d / np.maximum(seg_len, 1e-300)[:, None]
+    no_rounding = max_deviation <= 0 if blend_length is None else blend_length <= 0
+    dof = wp.shape[1]
+    empty = _Corners(
+        np.zeros(0, np.int64), np.zeros(0), np.zeros((0, dof)), np.zeros((0, dof)),
+        np.zeros(0), np.zeros(0),
+    )  # fmt: skip
+    if n < 3 or no_rounding:
+        return u, seg_len, empty
+    u1, u2 = u[:-1], u[1:]
+    # turning angle; acos(u1·u2) reads 1.5e-8 rad for two equal directions, whose corner
+    # then had no direction to round towards (NaN)
+    alpha = 2.0 * np.arctan2(np.linalg.norm(u2 - u1, axis=1), np.linalg.norm(u2 + u1, axis=1))
+    # a reversal cannot be rounded; the motion stops there
+    ok = (alpha >= 1e-9) & (alpha <= math.pi - 1e-6) & (seg_len[:-1] >= 1e-12)
+    ok &= seg_len[1:] >= 1e-12
+    idx = np.flatnonzero(ok)
+    u1, u2, half = u1[idx], u2[idx], 0.5 * alpha[idx]
+    len1, len2 = seg_len[idx], seg_len[idx + 1]
+    if blend_length is None:
+        # deviation of the arc's midpoint from the corner: r (1/cos(half) - 1), with
+        # 1 − cos(half) written as 2 sin²(half/2): exact for tiny turns too
+        r = max_deviation * np.cos(half) / (2.0 * np.sin(0.5 * half) ** 2)
+        ell = np.minimum(np.minimum(r * np.tan(half), 0.5 * len1), 0.5 * len2)
+    else:
+        # a blend may use a whole first or last segment (no other blend shares it), half of
+        # any other one (Pilz: blend spheres must not overlap)
+        avail = 0.5 * seg_len
+        avail[[0, -1]] = seg_len[[0, -1]] * (1.0 - 1e-6)
+        ell = np.minimum(np.minimum(blend_length, avail[idx]), avail[idx + 1])
+    r = ell / np.tan(half)
+    keep = ell >= 1e-9
+    if not keep.all():
+        idx, u1, u2, half, ell, r = idx[keep], u1[keep], u2[keep], half[keep], ell[keep], r[keep]
+    if len(idx) == 0:
+        return u, seg_len, empty
+    x = u2 - u1
+    x /= np.linalg.norm(x, axis=1)[:, None]
+    corner = wp[idx + 1]
+    centre = corner + x * (r / np.cos(half))[:, None]
+    e1 = (corner - ell[:, None] * u1 - centre) / r[:, None]
+    return u, seg_len, _Corners(idx + 1, ell, centre, e1, r, 2.0 * half)
+
+
+def arc_states(
+    waypoints: ArrayLike, max_deviation: float, resolution: float
+) -> NDArray[np.float64]:
+    """``BlendedPath(waypoints, max_deviation).sample_states(resolution, arcs_only=True)``
+    without building the path: the points of its rounded corners, consecutive ones at most
+    ``resolution`` apart in every joint, ends included; (0, dof) if there are none (a
+    tenth of the time, measured: the planner checks them for every plan)."""
+    wp = _ArcLengthPath._clean(waypoints)
+    u, _, c = _corner_arcs(wp, max_deviation, None)
+    if len(c.waypoint) == 0:
+        return np.empty((0, wp.shape[1]))
+    e2 = u[c.waypoint - 1]
+    rate = np.max(np.hypot(c.e1, e2), axis=1)
+    n = np.maximum(1, np.ceil(c.radius * c.angle * rate / resolution)).astype(np.int64)
+    arc = np.repeat(np.arange(len(n)), n + 1)
+    start = np.concatenate([[0], np.cumsum(n + 1)[:-1]])
+    th = (np.arange(len(arc)) - start[arc]) / n[arc] * c.angle[arc]
+    cos_t, sin_t = np.cos(th)[:, None], np.sin(th)[:, None]
+    return c.centre[arc] + c.radius[arc, None] * (cos_t * c.e1[arc] + sin_t * e2[arc])
 
 
 class SubPath(AbstractGeometricPath):  # type: ignore[misc]
