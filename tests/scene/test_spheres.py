@@ -135,3 +135,18 @@ def test_every_point_of_a_triangle_is_in_a_leaf_that_lists_the_triangle():
     # a primitive's leaves list no triangles
     box = shape_tree(Box((0.1, 0.2, 0.05)))
     assert not box.meshes_only and box.tri_start[-1] == 0
+
+
+def test_body_trees_are_kept_in_memory_by_content():
+    """A held object's tree is built or loaded once per process: the same shapes give the same
+    tree, other shapes or poses another one."""
+    from robocell.scene.spheres import body_tree
+
+    T = np.eye(4)
+    a = body_tree([(Box((0.05, 0.04, 0.03)), T)])
+    assert body_tree([(Box((0.05, 0.04, 0.03)), T.copy())]) is a
+    assert body_tree([(Box((0.05, 0.04, 0.031)), T)]) is not a
+    moved = T.copy()
+    moved[0, 3] = 0.01
+    b = body_tree([(Box((0.05, 0.04, 0.03)), moved)])
+    assert b is not a and np.allclose(b.nodes[0, 0], a.nodes[0, 0] + 0.01)

@@ -566,6 +566,12 @@ def _scratch(
     m, k, n_tris = max(m, 1), max(k, 1), max(n_tris, 1)
     have = _SCRATCH.get(robot)
     if have is None or have[0].shape[1] < m or have[2].shape[1] < k or have[4].shape[1] < n_tris:
+        if have is not None:
+            # grown by half at least: a robot holding objects of a few sizes in turn (the
+            # sorting demo) grew it 24 times by a few nodes, filling it anew each time
+            m = max(m, have[0].shape[1] * 3 // 2)
+            k = max(k, have[2].shape[1] * 3 // 2)
+            n_tris = max(n_tris, have[4].shape[1] * 3 // 2)
         # the stamps' last entry is not a sphere's: it counts the centres placed (K._centre).
         # Filled, not empty: a slot's pages are then mapped here, not in a plan's first search
         have = (

@@ -23,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -684,8 +685,29 @@ def body_tree(
     for shape, T in shapes:
         h.update(_shape_key(shape))
         h.update(np.round(np.asarray(T, float), 12).tobytes())
+    key = h.hexdigest()
+    if key in _TREES:  # a held object's tree, for each checker built while it is held
+        _TREES.move_to_end(key)
+        return _TREES[key]
+    tree = _load_or_build(key, shapes, leaf_size)
+    _TREES[key] = tree
+    while len(_TREES) > 256:
+        _TREES.popitem(last=False)
+    return tree
+
+
+# trees loaded or built in this process, by key (the arrays are never written once built):
+# loading one from the disk cache took 1.9 ms, and the sorting demo builds a checker for each
+# grasp and place candidate it tries (459 loads, 0.9 of its 6.3 s; measured)
+_TREES: OrderedDict[str, SphereTree] = OrderedDict()
+
+
+def _load_or_build(
+    key: str, shapes: list[tuple[Shape, NDArray[np.float64]]], leaf_size: float
+) -> SphereTree:
+    """The tree from the disk cache, else built (and stored there)."""
     folder = _cache_dir()
-    path = None if folder is None else folder / f"{h.hexdigest()}.npz"
+    path = None if folder is None else folder / f"{key}.npz"
     if path is not None and path.is_file():
         try:
             with np.load(path) as d:
