@@ -408,20 +408,19 @@ class Planner:
                 continue
             hit = hits[k]
             # around the stretch that collides (a → before and after → b are pieces of the
-            # segment, free already), else from end to end
+            # segment, free already), else from end to end, else a search
             for p0, p1 in ((hit.before, hit.after), (a, b)):
                 via = self._detour(checker, p0, p1, group, rng, hit.first)
                 if via is not None:
                     for p in (p0, via, p1, b):
-                        if np.any(p != out[-1]):
+                        if np.any(p != out[-1]):  # an end of the stretch may be a or b
                             out.append(p)
                     break
-            if via is not None:
-                continue
-            sub = self._solve("", fine, a, b[None, :], group, rng, deadline)
-            if sub is None:
-                return None
-            out.extend(self._shortcut(fine, sub, rng, deadline, fine.stats.states)[1:])
+            else:
+                sub = self._solve("", fine, a, b[None, :], group, rng, deadline)
+                if sub is None:
+                    return None
+                out.extend(self._shortcut(fine, sub, rng, deadline, fine.stats.states)[1:])
         return np.array(out)
 
     def _detour(
@@ -465,8 +464,8 @@ class Planner:
         segments_checked: bool = False,
     ) -> tuple[bool, float, NDArray[np.float64], dict[int, Hit]]:
         """Check the path as it will be executed at the validation resolution: (valid, corner
-        deviation to execute it with, the first colliding state or an empty array, the first
-        colliding state of each straight segment that collides).
+        deviation to execute it with, the first colliding state or an empty array, where each
+        straight segment that collides does (:class:`Hit`)).
 
         The straight segments are checked first (``segments_checked``: they already were, at
         this resolution, as a repair does). A path whose segments are free is valid: if a
