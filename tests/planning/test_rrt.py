@@ -124,9 +124,9 @@ def test_validation_names_the_segments_that_collide(walled):
 
 
 def test_searches_side_by_side_return_the_least_work_one(walled):
-    """Two compiled searches run side by side (threads) and the one whose path took the least
-    work wins, whatever the scheduling: the same path as the better of the two seeds run on
-    their own, every time."""
+    """Two compiled searches run side by side (the kernel's threads) and the one whose path
+    took the least work wins, whatever the scheduling: the same path as the better of the two
+    seeds run on their own, every time."""
     from robocell.planning import _kernels as PK
     from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 

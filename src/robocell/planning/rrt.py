@@ -10,10 +10,8 @@ first collision.
 from __future__ import annotations
 
 import math
-import os
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -174,11 +172,14 @@ def rrt_connect_compiled(
     filled up. States the kernel leaves unsure block its edges; the caller may then search in
     Python, which settles them.
 
-    With ``searches=2`` a second search with a seed of its own runs beside the first, in a
-    thread (without the GIL), and the one that finds a path with the least work (see
-    ``_kernels._work``: states and sphere centres placed, a measure of time that does not
-    depend on the machine's load) wins: the other stops once it has done more. The result
-    depends on the seed only, not on the scheduling of the threads or the number of cores.
+    With ``searches=2`` a second search with a seed of its own runs beside the first, on
+    the kernel's threads (``_kernels.rrt_connect_many``; a Python thread's handoff cost
+    150–200 µs more per plan: medians 5–13 % higher on UR5 and Panda table_pick,
+    table_under_pick and UR5 box, the same paths), and the one that finds a path with the
+    least work (see ``_kernels._work``: states and sphere centres placed, a measure of time
+    that does not depend on the machine's load) wins: the other stops once it has done
+    more. The result depends on the seed only, not on the scheduling of the threads or the
+    number of cores.
     A search's work varies widely with its seed, so the better of two cuts the long searches
     most: over the first 40 problems of each UR5 set with obstacles, the mean planning time
     fell by 11–43 %, the p95 by 12–52 %. Short searches are slowed a little (two at once
@@ -197,51 +198,28 @@ def rrt_connect_compiled(
     searches = max(1, min(searches, SEARCH_SLOTS))
     first_slot = scratch[0].shape[0] - SEARCH_SLOTS
     seeds = rng.integers(2**31, size=searches)
-    never = np.iinfo(np.int64).max
-    found = np.full(searches, never, np.int64)
-    args = (
-        np.ascontiguousarray(start, dtype=float),
-        np.ascontiguousarray(goals, dtype=float),
-        np.ascontiguousarray(lower, dtype=float),
-        np.ascontiguousarray(upper, dtype=float),
-    )
-
+    start = np.ascontiguousarray(start, dtype=float)
+    goals = np.ascontiguousarray(goals, dtype=float)
+    lower = np.ascontiguousarray(lower, dtype=float)
+    upper = np.ascontiguousarray(upper, dtype=float)
     ends = np.vstack([start, goals])
     box_lo = np.maximum(lower, ends.min(axis=0) - box_margin)
     box_hi = np.minimum(upper, ends.max(axis=0) + box_margin)
-
-    def search(i: int) -> tuple[NDArray[np.float64], int, NDArray[np.int64]]:
-        return PK.rrt_connect(  # type: ignore[no-any-return]
-            *args, int(seeds[i]), deadline, edges.resolution, step, model, scratch,
-            next_epoch(1 << 40), cap, first_slot + i, found, i, box_lo, box_hi, box_share,
-        )  # fmt: skip
-
+    epochs = np.array([next_epoch(1 << 40) for _ in range(searches)], np.int64)
     with _SEARCH_LOCK:
-        others = [_threads().submit(search, i) for i in range(1, searches)]
-        results = [search(0)] + [f.result() for f in others]
-    wins = [i for i, r in enumerate(results) if r[1] == PK.FOUND]
-    best = min(wins, key=lambda i: (int(found[i]), i)) if wins else 0
-    path, status, stats = results[best]
-    edges.stats.iterations += int(stats[0])
-    edges.stats.nodes = int(stats[1])
-    edges.stats.states += int(stats[3])
-    return path if status == PK.FOUND else None
+        paths, lengths, statuses, stats, found = PK.rrt_connect_many(
+            start, goals, lower, upper, seeds, deadline, edges.resolution, step, model,
+            scratch, epochs, cap, first_slot, box_lo, box_hi, box_share,
+        )  # fmt: skip
+    wins = np.flatnonzero(statuses == PK.FOUND)
+    best = int(wins[np.argmin(found[wins])]) if len(wins) else 0  # argmin: the first of ties
+    edges.stats.iterations += int(stats[best, 0])
+    edges.stats.nodes = int(stats[best, 1])
+    edges.stats.states += int(stats[best, 3])
+    return paths[best, : lengths[best]].copy() if statuses[best] == PK.FOUND else None
 
 
 _SEARCH_LOCK = threading.Lock()  # the searches' scratch slots serve one planner at a time
-_POOL: dict[int, ThreadPoolExecutor] = {}
-
-
-def _threads() -> ThreadPoolExecutor:
-    """The search threads of this process (a forked child gets its own: its parent's threads
-    did not come along, and their pool would never run its work)."""
-    pid = os.getpid()
-    if pid not in _POOL:
-        from robocell.scene.checker import SEARCH_SLOTS
-
-        _POOL.clear()
-        _POOL[pid] = ThreadPoolExecutor(SEARCH_SLOTS - 1, thread_name_prefix="robocell-search")
-    return _POOL[pid]
 
 
 def shortcut_compiled(
@@ -282,17 +260,16 @@ def warm_up(checker: BatchChecker) -> None:
     if _WARM[0]:
         return
     from robocell.planning import _kernels as PK
-    from robocell.scene.checker import next_epoch
+    from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 
     model, scratch = checker.kernel_inputs()  # type: ignore[attr-defined]
     q = np.ascontiguousarray(model[1][model[0]], dtype=float)  # the current state
-    slot = scratch[0].shape[0] - 1
-    found = np.full(1, np.iinfo(np.int64).max, np.int64)
-    # once in a search thread too: its first call there costs a few ms (measured)
-    _threads().submit(
-            PK.rrt_connect, q, q[None, :], q - 1, q + 1, 0, 0.0, 0.05, 1.0, model, scratch,
-        next_epoch(1 << 20), 16, slot, found, 0, q - 1, q + 1, 0.5,
-    ).result()  # fmt: skip
+    # the kernel's threads start on its first parallel call
+    epochs = np.array([next_epoch(1 << 20) for _ in range(SEARCH_SLOTS)], np.int64)
+    PK.rrt_connect_many(
+        q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0, model,
+        scratch, epochs, 16, scratch[0].shape[0] - SEARCH_SLOTS, q - 1, q + 1, 0.5,
+    )  # fmt: skip
     PK.shortcut(np.array([q, q + 0.01]), 0, 0.0, 0.05, model, scratch, next_epoch(1 << 20), 1, 1)
     PK.detour(q, q, q, q - 1, q + 1, np.zeros(1), 0, 0.05, model, scratch, next_epoch(1 << 20))
     PK._clock()  # through numba's object mode (off Linux), 50 ms on its first call (measured)
