@@ -16,6 +16,7 @@ stamp marks those done).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
@@ -29,6 +30,10 @@ OBS_BOX, OBS_CYLINDER, OBS_SPHERE = 0, 1, 2
 # a triangle in the exact test: its "pose" (3×4) holds the vertices as columns 0–2 and the
 # centroid as column 3
 OBS_TRIANGLE = 3
+# numba's reference counting (its CPU target's option ``_nrt``, which its type stubs lack), on
+# or off: see _classify_range
+NRT_ON: dict[str, Any] = {"_nrt": True}
+NRT_OFF: dict[str, Any] = {"_nrt": False}
 
 
 @njit(cache=True, inline="always")
@@ -199,7 +204,7 @@ def _dot(a, b):  # type: ignore[no-untyped-def]
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(cache=True, _nrt=True)  # allocates: counted even when called from _classify_state
+@njit(cache=True, **NRT_ON)  # allocates: counts references even when _classify_range calls it
 def gjk_intersect(ka, Ta, da, kb, Tb, db):  # type: ignore[no-untyped-def]
     """GJK_HIT if solid primitives A and B are closer than EXACT_TOL, GJK_FREE if not,
     GJK_UNSURE if the iterations run out."""
@@ -320,7 +325,7 @@ def _placed(TB, b, P, out):  # type: ignore[no-untyped-def]
         out[i, 3] += TB[b, i, 3]
 
 
-@njit(cache=True, _nrt=True)  # allocates: counted even when called from _classify_state
+@njit(cache=True, **NRT_ON)  # allocates: counts references even when _classify_range calls it
 def _exact_world(b, kind, To, dims, TB, prim_start, prim_kind, prim_T, prim_dims):  # type: ignore[no-untyped-def]
     """GJK over body b's primitives against one solid obstacle primitive."""
     Tp = np.empty((3, 4))
@@ -335,7 +340,7 @@ def _exact_world(b, kind, To, dims, TB, prim_start, prim_kind, prim_T, prim_dims
     return GJK_UNSURE if unsure else GJK_FREE
 
 
-@njit(cache=True, _nrt=True)  # allocates: counted even when called from _classify_state
+@njit(cache=True, **NRT_ON)  # allocates: counts references even when _classify_range calls it
 def _exact_self(a, b, TB, prim_start, prim_kind, prim_T, prim_dims):  # type: ignore[no-untyped-def]
     """GJK over the primitives of bodies a and b."""
     Ta = np.empty((3, 4))
@@ -359,7 +364,7 @@ PAIR_TAGS = 1 << 16  # more than any checker's pairs: a (state, pair) tag is cur
 TOUCH = 3  # a pair's leaves touch and the kernel cannot settle it (the caller decides)
 
 
-@njit(cache=True, _nrt=True)  # allocates: counted even when called from _classify_state
+@njit(cache=True, **NRT_ON)  # allocates: counts references even when _classify_range calls it
 def triangle_box_overlap(tri, T, half):  # type: ignore[no-untyped-def]
     """Whether triangle ``tri`` (3×4: vertices as columns 0–2) meets the solid box at T (≥3×4)
     with half extents ``half`` grown by EXACT_TOL: the separating-axis test of
@@ -486,7 +491,7 @@ def _triangle_into(R, t, V, out):  # type: ignore[no-untyped-def]
         out[i, 3] = (out[i, 0] + out[i, 1] + out[i, 2]) / 3.0
 
 
-@njit(cache=True, _nrt=True)  # allocates: counted even when called from _classify_state
+@njit(cache=True, **NRT_ON)  # allocates: counts references even when _classify_range calls it
 def _mesh_vs_obstacle(
     b,
     root,
@@ -647,7 +652,7 @@ def _relative_pose(TB, f, b, R, t):  # type: ignore[no-untyped-def]
         )
 
 
-@njit(cache=True, _nrt=True)  # allocates: counted even when called from _classify_state
+@njit(cache=True, **NRT_ON)  # allocates: counts references even when _classify_range calls it
 def _near_members(
     f,
     u,
@@ -717,7 +722,7 @@ def _near_members(
     return marked
 
 
-@njit(cache=True, _nrt=True)  # allocates: counted even when called from _classify_state
+@njit(cache=True, **NRT_ON)  # allocates: counts references even when _classify_range calls it
 def _tree_near_field(
     f,
     b,
@@ -1019,12 +1024,8 @@ def _inner_overlap(a, b, rb, TB, nodes, inner, inner_start, W, Wi, stamp_i, cur)
     return False
 
 
-# Compiled without numba's reference counting (``_nrt=False``, an option of numba's CPU target):
-# it creates no array, and counting the references to the model's 58 arrays as it unpacks
-# them cost 0.5 µs per state (random states near the Panda and the UR5: 5.5 → 4.7 and
-# 6.7 → 5.5 µs; a planned path's states take 1–2 µs). The functions it calls that allocate
-# set ``_nrt=True``, as they would otherwise inherit the option from it.
-@njit(cache=True, _nrt=False)
+# Inlined into _classify_range, which is compiled without numba's reference counting.
+@njit(cache=True, inline="always")
 def _classify_state(
     q, TB, model, W, stamp, Wi, stamp_i, seen, pairs, cur, stack, stack2, stack3, flags, status
 ):  # type: ignore[no-untyped-def]
@@ -1359,7 +1360,28 @@ def _classify_state(
     return UNSURE if unsure else FREE
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _range_buffers(model):  # type: ignore[no-untyped-def]
+    """The work arrays of one :func:`_classify_range` call: body poses, the full variable
+    vector (the model's, to be overwritten in the group's variables), three descent stacks
+    and the self pairs' status."""
+    return (
+        np.empty((model[12].shape[0], 3, 4)),
+        model[1].copy(),
+        np.empty(256, np.int64),
+        np.empty((512, 2), np.int64),
+        np.empty(256, np.int64),
+        np.empty(model[26].shape[0], np.int8),
+    )
+
+
+# Compiled without numba's reference counting (``_nrt=False``, an option of numba's CPU
+# target): it creates no array (its caller passes them, :func:`_range_buffers`), and counting
+# the references to the model's 58 arrays, which _classify_state (inlined) unpacks for each
+# state, and to every array its helpers touch cost 0.5–2 µs of a 1–6 µs state (measured on
+# the Panda and the UR5). The functions it calls that allocate set ``_nrt=True``, as they
+# would otherwise inherit the option.
+@njit(cache=True, **NRT_OFF)
 def _classify_range(
     s0,
     s1,
@@ -1377,23 +1399,20 @@ def _classify_range(
     record_flags,
     scratch_row,
     out,
+    buffers,
     stop_early=False,
 ):  # type: ignore[no-untyped-def]
     """Classify states s0..s1-1 with one thread's scratch (W, stamp, Wi, stamp_i, seen, pairs, T).
     Stamps hold ``epoch + s`` for the state that last placed a sphere, so the scratch is
-    reused across calls without being reset. ``stop_early``: return after the first state that
-    is not FREE (the later ones keep their UNCHECKED mark)."""
+    reused across calls without being reset. ``buffers``: :func:`_range_buffers`.
+    ``stop_early``: return after the first state that is not FREE (the later ones keep their
+    UNCHECKED mark)."""
     group_idx, q_base, joints, root, parent, child, origin, jtype, axis, var, mult, offset = model[
         :12
     ]
     body_link, body_T = model[12], model[13]
     B = body_link.shape[0]
-    TB = np.empty((B, 3, 4))
-    q = q_base.copy()
-    stack = np.empty(256, np.int64)
-    stack2 = np.empty((512, 2), np.int64)
-    stack3 = np.empty(256, np.int64)
-    status = np.empty(model[26].shape[0], np.int8)
+    TB, q, stack, stack2, stack3, status = buffers
     for s in range(s0, s1):
         for i in range(group_idx.shape[0]):
             q[group_idx[i]] = qs[s, i]
@@ -1459,6 +1478,7 @@ def classify_serial(qs, model, scratch, epoch, record_flags, stop_early=False, s
         record_flags,
         row,
         out,
+        _range_buffers(model),
         stop_early,
     )
     return out, flags
@@ -1500,5 +1520,6 @@ def classify(qs, model, scratch, epoch, record_flags, chunk):  # type: ignore[no
             record_flags,
             rows[t],
             out,
+            _range_buffers(model),
         )
     return out, flags
