@@ -71,9 +71,10 @@ else:
 
 
 @njit(cache=True)
-def _free_prefix(a, b, resolution, model, scratch, epoch, buf, slot):  # type: ignore[no-untyped-def]
+def _free_prefix(a, b, resolution, model, sc, epoch, buf):  # type: ignore[no-untyped-def]
     """(free states after a on the segment a → b, states on it), the states at most
-    ``resolution`` apart per joint, b included, a not; checked on scratch slot ``slot``."""
+    ``resolution`` apart per joint, b included, a not; checked on scanner ``sc``
+    (SK.scanner)."""
     dist = 0.0
     for j in range(a.shape[0]):
         dist = max(dist, abs(b[j] - a[j]))
@@ -84,11 +85,7 @@ def _free_prefix(a, b, resolution, model, scratch, epoch, buf, slot):  # type: i
         t = (k + 1) / n
         for j in range(a.shape[0]):
             buf[k, j] = a[j] + t * (b[j] - a[j])
-    out, _ = SK.classify_serial(buf[:n], model, scratch, epoch, False, True, slot)
-    for k in range(n):
-        if out[k] != SK.FREE:
-            return k, n
-    return n, n
+    return SK.scan(buf, n, model, sc, epoch), n
 
 
 @njit(cache=True)
@@ -129,7 +126,7 @@ def _nearest(Q, n, q):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _extend(Q, P, n, i, q_to, step, resolution, model, scratch, epoch, buf, stats, slot):  # type: ignore[no-untyped-def]
+def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats):  # type: ignore[no-untyped-def]
     """Grow the tree (Q, P, n nodes) from node i towards q_to by at most ``step`` (L∞), as far
     as it is free: the new node's index, or −1 if not even the first state is free."""
     dof = q_to.shape[0]
@@ -142,7 +139,7 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, scratch, epoch, buf, stat
     target = np.empty(dof)
     for j in range(dof):
         target[j] = Q[i, j] + f * (q_to[j] - Q[i, j])
-    k, m = _free_prefix(Q[i], target, resolution, model, scratch, epoch + stats[2], buf, slot)
+    k, m = _free_prefix(Q[i], target, resolution, model, sc, epoch + stats[2], buf)
     stats[2] += m
     stats[3] += min(k + 1, m)
     if k == 0:
@@ -174,6 +171,7 @@ def rrt_connect(
     stats = np.zeros(5, np.int64)  # iterations, nodes, epochs used, states checked, work
     placed = _placed(scratch, slot)
     buf = np.empty((4096, dof))
+    sc = SK.scanner(model, scratch, slot, buf.shape[0])
     empty = np.empty((0, dof))
     # straight to the nearest goals first: many requests need nothing more (the first search
     # tries it; the others would repeat it)
@@ -181,9 +179,7 @@ def rrt_connect(
     for g in range(goals.shape[0]):
         d[g] = np.sqrt(np.sum((goals[g] - start) ** 2))
     for g in np.argsort(d)[: 4 if me == 0 else 0]:
-        k, m = _free_prefix(
-            start, goals[g], resolution, model, scratch, epoch + stats[2], buf, slot
-        )
+        k, m = _free_prefix(start, goals[g], resolution, model, sc, epoch + stats[2], buf)
         stats[2] += m
         stats[3] += min(k + 1, m)
         if k == m:
@@ -220,9 +216,7 @@ def rrt_connect(
         for j in range(dof):
             q_rand[j] = lo[j] + np.random.random() * (hi[j] - lo[j])  # noqa: NPY002
         i = _nearest(Qa, na, q_rand)
-        i_new = _extend(
-            Qa, Pa, na, i, q_rand, step, resolution, model, scratch, epoch, buf, stats, slot
-        )
+        i_new = _extend(Qa, Pa, na, i, q_rand, step, resolution, model, sc, epoch, buf, stats)
         if i_new >= 0:
             na += 1
             q_new = Qa[i_new].copy()
@@ -230,8 +224,7 @@ def rrt_connect(
             j = _nearest(Qb, nb, q_new)
             while nb < cap - 1:
                 j2 = _extend(
-                    Qb, Pb, nb, j, q_new, step, resolution, model, scratch, epoch, buf, stats,
-                    slot,
+                    Qb, Pb, nb, j, q_new, step, resolution, model, sc, epoch, buf, stats
                 )  # fmt: skip
                 if j2 < 0:
                     break
@@ -305,7 +298,7 @@ def rrt_connect_many(
 
 
 @njit(cache=True)
-def _edge_free(a, b, resolution, model, scratch, epoch, buf, stats):  # type: ignore[no-untyped-def]
+def _edge_free(a, b, resolution, model, sc, epoch, buf, stats):  # type: ignore[no-untyped-def]
     """Whether the segment a → b (b included, a assumed free) is free, its states at most
     ``resolution`` apart per joint, stopping at the first state that is not FREE. Every 8th
     state is checked first, then the 4th, 2nd and 1st between them, so that an obstacle
@@ -313,7 +306,7 @@ def _edge_free(a, b, resolution, model, scratch, epoch, buf, stats):  # type: ig
     on 30 problems each of UR5 table_pick, table_under_pick and box than with every 8th
     first and the rest in order; 109 of 120 paths over six sets came out the same, the others
     0–0.5 % shorter on average, more random tries fitting in the budget). Counts epochs and
-    states in ``stats`` (2: epochs used, 3: states checked)."""
+    states in ``stats`` (2: epochs used, 3: states checked). ``sc``: SK.scanner."""
     dof = a.shape[0]
     dist = 0.0
     for j in range(dof):
@@ -331,18 +324,14 @@ def _edge_free(a, b, resolution, model, scratch, epoch, buf, stats):  # type: ig
             for j in range(dof):
                 buf[r, j] = a[j] + t * (b[j] - a[j])
             r += 1
-    out, _ = SK.classify_serial(buf[:n], model, scratch, epoch + stats[2], False, True, 0)
+    k = SK.scan(buf, n, model, sc, epoch + stats[2])
     stats[2] += n
-    for k in range(n):
-        if out[k] != SK.FREE:
-            stats[3] += k + 1
-            return False
-    stats[3] += n
-    return True
+    stats[3] += min(k + 1, n)
+    return k == n
 
 
 @njit(cache=True)
-def _skip_waypoints(path, resolution, model, scratch, epoch, buf, stats, deadline):  # type: ignore[no-untyped-def]
+def _skip_waypoints(path, resolution, model, sc, epoch, buf, stats, deadline):  # type: ignore[no-untyped-def]
     """From each kept waypoint, jump to the farthest one reachable in a straight line."""
     n = path.shape[0]
     keep = np.empty(n, np.int64)
@@ -355,7 +344,7 @@ def _skip_waypoints(path, resolution, model, scratch, epoch, buf, stats, deadlin
             if _clock() > deadline:
                 j = i + 1
                 break
-            if _edge_free(path[i], path[j], resolution, model, scratch, epoch, buf, stats):
+            if _edge_free(path[i], path[j], resolution, model, sc, epoch, buf, stats):
                 break
             j -= 1
         keep[m] = j
@@ -375,7 +364,8 @@ def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries,
     dof = path.shape[1]
     stats = np.zeros(4, np.int64)
     buf = np.empty((4096, dof))
-    path = _skip_waypoints(path, resolution, model, scratch, epoch, buf, stats, deadline)
+    sc = SK.scanner(model, scratch, 0, buf.shape[0])
+    path = _skip_waypoints(path, resolution, model, sc, epoch, buf, stats, deadline)
     stop_at = stats[3] + budget
     fails = 0
     tries = 0
@@ -407,7 +397,7 @@ def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries,
         if np.sqrt(np.sum((p2 - p1) ** 2)) > (s2 - s1) - 1e-6:
             fails += 1
             continue
-        if _edge_free(p1, p2, resolution, model, scratch, epoch, buf, stats):
+        if _edge_free(p1, p2, resolution, model, sc, epoch, buf, stats):
             new = np.empty((i1 + 1 + 2 + K - i2 - 1, dof))
             new[: i1 + 1] = path[: i1 + 1]
             new[i1 + 1] = p1
@@ -419,7 +409,7 @@ def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries,
         else:
             fails += 1
     if changed:  # else the first pass's result stands (a second would redo its checks)
-        path = _skip_waypoints(path, resolution, model, scratch, epoch, buf, stats, deadline)
+        path = _skip_waypoints(path, resolution, model, sc, epoch, buf, stats, deadline)
     # repeated waypoints dropped (at least the two ends)
     keep = np.ones(path.shape[0], np.bool_)
     for s in range(1, path.shape[0]):
@@ -442,15 +432,16 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
     dof = a.shape[0]
     stats = np.zeros(4, np.int64)
     buf = np.empty((4096, dof))
+    sc = SK.scanner(model, scratch, 0, buf.shape[0])
     w = np.empty(dof)
     for radius in radii:
         for j in range(dof):
             x = near[j] + (2.0 * np.random.random() - 1.0) * radius  # noqa: NPY002
             w[j] = min(max(x, lower[j]), upper[j])
         if (
-            _edge_free(w, w, resolution, model, scratch, epoch, buf, stats)
-            and _edge_free(a, w, resolution, model, scratch, epoch, buf, stats)
-            and _edge_free(w, b, resolution, model, scratch, epoch, buf, stats)
+            _edge_free(w, w, resolution, model, sc, epoch, buf, stats)
+            and _edge_free(a, w, resolution, model, sc, epoch, buf, stats)
+            and _edge_free(w, b, resolution, model, sc, epoch, buf, stats)
         ):
             return True, w, stats
     return False, w, stats
