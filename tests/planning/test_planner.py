@@ -212,6 +212,20 @@ def test_ompl_backend(walled, state_check):
     _assert_valid(walled, arm, plan)
 
 
+def test_ompl_simplifies_as_moveit_does(walled):
+    """With ompl_simplify, OMPL's own simplifier shortens OMPL's path (the native shortcut is
+    skipped), and the path is validated as any other."""
+    pytest.importorskip("ompl")
+    arm = walled.robot.group("arm")
+    request = MotionPlanRequest(
+        "arm", JointGoal(GOAL), start=START, planner_id="RRTConnect", planning_time=5.0, seed=3
+    )
+    raw = Planner(walled, PlannerConfig(shortcut=False)).plan(request)
+    simplified = Planner(walled, PlannerConfig(ompl_simplify=True)).plan(request)
+    _assert_valid(walled, arm, simplified)
+    assert simplified.path_length < raw.path_length
+
+
 def test_ompl_state_check_must_be_known(walled):
     pytest.importorskip("ompl")
     request = MotionPlanRequest(

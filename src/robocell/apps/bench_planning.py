@@ -2,13 +2,16 @@
 with the native planner and, with ``--baseline``, with OMPL's RRTConnect in the same run. Prints
 one row per set and planner; ``--json`` writes every problem's figures.
 
-Baselines (``--baseline ompl,ompl-kernel``), both with the native planner's shortcut and final
-check after OMPL's search, so that only the search differs:
+Baselines (``--baseline ompl,ompl-kernel,ompl-moveit``); the first two go through the native
+planner's shortcut and final check after OMPL's search, so that only the search differs:
 
 - ``ompl``: OMPL's RRTConnect checking each state exactly, coal alone through a broad phase
   (``CollisionChecker.check_exact_one``), as MoveIt's OMPL pipeline does with FCL.
 - ``ompl-kernel``: OMPL's RRTConnect checking each state with robocell's two-level checker
   (spheres, then coal where they are unsure), one state per call: the search alone compared.
+- ``ompl-moveit``: as ``ompl``, its path then simplified by OMPL's own simplifier with the
+  same exact checks, as MoveIt's OMPL pipeline does (``simplify_solutions``), instead of the
+  native shortcut; the same final check.
 
 Planning time is from the request to the validated path (goal resolution, planning,
 shortcutting, the final check at fine resolution); scene loading and the checker's
@@ -32,10 +35,11 @@ from robocell.planning.rrt import warm_up
 from robocell.robot.model import RobotModel
 from robocell.scene.moveit_yaml import load_request, load_scene
 
-# baseline name -> OMPL planner and how its callback checks a state
+# baseline name -> OMPL planner, how its callback checks a state, whether OMPL simplifies
 BASELINES = {
-    "ompl": ("RRTConnectkConfigDefault", "exact"),
-    "ompl-kernel": ("RRTConnectkConfigDefault", "kernel"),
+    "ompl": ("RRTConnectkConfigDefault", "exact", False),
+    "ompl-kernel": ("RRTConnectkConfigDefault", "kernel", False),
+    "ompl-moveit": ("RRTConnectkConfigDefault", "exact", True),
 }
 
 
@@ -104,7 +108,7 @@ def run_set(
         group = model.group(req.group)
         checker = scene.checker(group)
         warm_up(checker)  # compiling the search once per process is not planning
-        if any(BASELINES.get(p, ("", ""))[1] == "exact" for p in planners):
+        if any(p and BASELINES[p][1] == "exact" for p in planners):
             # coal's model of the scene and its broad phase, built on the first exact check
             # (12–14 ms for a UR5 scene, 2 ms for a Panda's): the checker's construction,
             # not planning, as the kernel's model is (before session 11 it was timed in
@@ -120,8 +124,9 @@ def run_set(
         for p in planners if k % 2 == 0 else planners[::-1]:
             r = ProblemResult(robot, set_name, k, p or "robocell", valid)
             if valid:
-                planner_id, state_check = BASELINES[p] if p else ("", "kernel")
-                planner = Planner(scene, PlannerConfig(ompl_state_check=state_check))
+                planner_id, state_check, simplify = BASELINES[p] if p else ("", "kernel", False)
+                config = PlannerConfig(ompl_state_check=state_check, ompl_simplify=simplify)
+                planner = Planner(scene, config)
                 request = MotionPlanRequest(
                     req.group,
                     JointGoal(req.goal),

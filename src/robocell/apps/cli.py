@@ -47,7 +47,8 @@ def main(argv: list[str] | None = None) -> int:
         default="",
         help="comma-separated, also plan with: ompl (OMPL's RRTConnect, states checked "
         "exactly by coal, as MoveIt with FCL), ompl-kernel (OMPL's RRTConnect on robocell's "
-        "checker)",
+        "checker), ompl-moveit (as ompl, its path simplified by OMPL's simplifier, as MoveIt "
+        "does)",
     )
     bp.add_argument("--json", help="write every problem's figures to this file")
     bp.add_argument("--mbm", help="folder holding ur5/ and panda/ (default: ../shared/bench/mbm)")

@@ -66,11 +66,15 @@ def plan(
     deadline: float,
     seed: int,
     state_check: str = "kernel",
+    simplify: bool = False,
 ) -> NDArray[np.float64] | None:
     """A path (K, dof) from ``start`` to one of ``goals`` found by OMPL planner ``name``, or None
     when none is found before ``deadline``. ``state_check``: how OMPL's callback checks a
     state, ``"kernel"`` (the checker's two-level check: spheres, then coal where they are
-    unsure) or ``"exact"`` (coal alone, :meth:`CollisionChecker.check_exact_one`)."""
+    unsure) or ``"exact"`` (coal alone, :meth:`CollisionChecker.check_exact_one`).
+    ``simplify``: the solution simplified by OMPL's own simplifier in the time left (vertex
+    reduction, shortcuts, B-spline smoothing, with the same state and edge checks), as
+    MoveIt's OMPL pipeline does with ``simplify_solutions: true``."""
     if state_check not in STATE_CHECKS:
         raise PlanningError(
             f"unknown OMPL state check {state_check!r}; known: {', '.join(STATE_CHECKS)}"
@@ -144,6 +148,8 @@ def plan(
     solved = ss.solve(remaining)
     if not solved or not ss.haveExactSolutionPath():
         return None
+    if simplify:
+        ss.simplifySolution(max(0.0, deadline - time.perf_counter()))
     path = ss.getSolutionPath()
     out = np.array([[path.getState(k)[i] for i in range(dof)] for k in range(path.getStateCount())])
     return out
