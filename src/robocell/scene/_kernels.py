@@ -21,6 +21,7 @@ from typing import Any
 import numba
 import numpy as np
 from numba import njit, prange
+from numpy.typing import NDArray
 
 from robocell.kinematics._kernels import fk_into
 
@@ -983,12 +984,23 @@ MODEL_FIELDS = (
 
 
 TABLE_FREE, TABLE_HIT = 0, 1  # as pair_tables (imported there from here)
+
+
+def pack_tables(values: NDArray[np.uint8]) -> NDArray[np.uint8]:
+    """Pair-table cells (FREE, HIT or CHECK: 0–2) four to a byte, the first in the lowest
+    bits, for :func:`_table_value`: the UR5's tables take 5.5 MB instead of 22, and a random
+    state's lookups miss the cache less."""
+    v = np.concatenate([values, np.zeros(-len(values) % 4, np.uint8)]).reshape(-1, 4)
+    return (v[:, 0] | (v[:, 1] << 2) | (v[:, 2] << 4) | (v[:, 3] << 6)).astype(np.uint8)
+
+
 INV_TWO_PI = 1.0 / (2.0 * math.pi)
 
 
 @njit(cache=True, inline="always")
 def _table_value(q, ti, table_vars, table_n, table_off, table_values):  # type: ignore[no-untyped-def]
-    """Table ti's value at q: each of its variables' angles wrapped to [0, 2π), n cells."""
+    """Table ti's value at q: each of its variables' angles wrapped to [0, 2π), n cells.
+    ``table_values`` holds four cells per byte (:func:`pack_tables`)."""
     n = table_n[ti]
     x = q[table_vars[ti, 0]] * INV_TWO_PI
     idx = min(int((x - math.floor(x)) * n), n - 1)
@@ -998,7 +1010,8 @@ def _table_value(q, ti, table_vars, table_n, table_off, table_values):  # type: 
             break
         x = q[v] * INV_TWO_PI
         idx = idx * n + min(int((x - math.floor(x)) * n), n - 1)
-    return table_values[table_off[ti] + idx]
+    c = table_off[ti] + idx
+    return (table_values[c >> 2] >> ((c & 3) << 1)) & 3
 
 
 @njit(cache=True, inline="always")

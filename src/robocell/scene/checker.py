@@ -965,7 +965,9 @@ class CollisionChecker:
                 cache.tables[key] = pair_table(robot, chain, base, f, d, packed, parts)
             index[k] = len(tables)
             tables.append(cache.tables[key])
-        sizes = [len(t.values) for t in tables]
+        # four cells to a byte (K.pack_tables), each table from a byte of its own
+        packed_values = [K.pack_tables(t.values) for t in tables]
+        sizes = [4 * len(v) for v in packed_values]
         out = (
             index[:n_pairs],
             np.array(
@@ -975,7 +977,7 @@ class CollisionChecker:
             np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
             if tables
             else np.zeros(0, np.int64),
-            np.concatenate([t.values for t in tables]) if tables else np.zeros(1, np.uint8),
+            np.concatenate(packed_values) if tables else np.zeros(1, np.uint8),
             index[n_pairs:],
         )
         cache.keep(out_key, out)
