@@ -160,6 +160,23 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
     assert winners == {0, 1}  # either seed won, in some problem
 
 
+def test_searches_one_after_the_other_find_the_same_path(walled):
+    """Where numba's threads cannot run the searches side by side (its workqueue layer), they
+    run one after the other and the same search wins: the same path."""
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    warm_up(checker)
+    for seed in range(4):
+        paths = []
+        for side_by_side in (True, False):
+            path = rrt_connect_compiled(
+                Edges(checker, 0.05), START, GOAL[None], arm.lower, arm.upper,
+                np.random.default_rng(seed), 1e18, 0.5, side_by_side=side_by_side,
+            )  # fmt: skip
+            paths.append(path)
+        assert paths[0] is not None and np.array_equal(paths[0], paths[1])
+
+
 def test_compiled_clock_reads_perf_counter():
     """The compiled searches compare their clock with deadlines from time.perf_counter."""
     import time

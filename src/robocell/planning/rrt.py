@@ -166,6 +166,7 @@ def rrt_connect_compiled(
     searches: int = 2,
     box_margin: float = 2.0,
     box_share: float = 0.8,
+    side_by_side: bool | None = None,
 ) -> NDArray[np.float64] | None:
     """:func:`rrt_connect` compiled whole on the collision kernel (see
     :mod:`robocell.planning._kernels`): a path, or None when the deadline passed or a tree
@@ -190,7 +191,11 @@ def rrt_connect_compiled(
     (so the search stays complete): most motions need a detour near the straight line, not
     one through the far side of the joint space. Over 2 × 40 problems per UR5 set, 0.8 and
     2 rad cut the cage's mean planning time from 95 to 40 ms and the bookshelves' p95 by
-    half, and shortened the paths by a sixth; a 1 rad margin doubled the cage's time."""
+    half, and shortened the paths by a sixth; a 1 rad margin doubled the cage's time.
+
+    ``side_by_side``: run the searches on the kernel's threads (True) or one after the other
+    (False; the same path); by default side by side where numba's threading layer allows it
+    (:func:`_threadsafe_layer`)."""
     from robocell.planning import _kernels as PK
     from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 
@@ -207,16 +212,48 @@ def rrt_connect_compiled(
     box_hi = np.minimum(upper, ends.max(axis=0) + box_margin)
     epochs = np.array([next_epoch(1 << 40) for _ in range(searches)], np.int64)
     with _SEARCH_LOCK:
-        paths, lengths, statuses, stats, found = PK.rrt_connect_many(
-            start, goals, lower, upper, seeds, deadline, edges.resolution, step, model,
-            scratch, epochs, cap, first_slot, box_lo, box_hi, box_share,
-        )  # fmt: skip
-    wins = np.flatnonzero(statuses == PK.FOUND)
-    best = int(wins[np.argmin(found[wins])]) if len(wins) else 0  # argmin: the first of ties
-    edges.stats.iterations += int(stats[best, 0])
-    edges.stats.nodes = int(stats[best, 1])
-    edges.stats.states += int(stats[best, 3])
-    return paths[best, : lengths[best]].copy() if statuses[best] == PK.FOUND else None
+        if side_by_side is None:
+            side_by_side = searches > 1 and _threadsafe_layer()
+        if side_by_side:
+            paths, lengths, statuses, stats, found = PK.rrt_connect_many(
+                start, goals, lower, upper, seeds, deadline, edges.resolution, step, model,
+                scratch, epochs, cap, first_slot, box_lo, box_hi, box_share,
+            )  # fmt: skip
+            results = [
+                (paths[i, : lengths[i]], int(statuses[i]), stats[i]) for i in range(searches)
+            ]
+        else:
+            # one after the other: each later search stops once it has done more work than
+            # an earlier one that found a path, so the same one wins
+            found = np.full(searches, np.iinfo(np.int64).max, np.int64)
+            results = [
+                PK.rrt_connect(
+                    start, goals, lower, upper, int(seeds[i]), deadline, edges.resolution, step,
+                    model, scratch, int(epochs[i]), cap, first_slot + i, found, i, box_lo,
+                    box_hi, box_share,
+                )
+                for i in range(searches)
+            ]  # fmt: skip
+    wins = [i for i, r in enumerate(results) if r[1] == PK.FOUND]
+    best = min(wins, key=lambda i: (int(found[i]), i)) if wins else 0
+    path, status, st = results[best]
+    edges.stats.iterations += int(st[0])
+    edges.stats.nodes = int(st[1])
+    edges.stats.states += int(st[3])
+    return path.copy() if status == PK.FOUND else None
+
+
+def _threadsafe_layer() -> bool:
+    """Whether numba's threading layer lets two threads launch parallel work at once: not
+    its ``workqueue`` layer (the fallback where neither OpenMP nor TBB is found), which aborts
+    the process then. The searches run side by side only on a threadsafe layer, as a search
+    may run while another thread checks a batch of states."""
+    import numba
+
+    try:
+        return numba.threading_layer() != "workqueue"  # type: ignore[no-any-return]
+    except ValueError:  # no parallel work has run yet: the layer is not chosen
+        return False
 
 
 _SEARCH_LOCK = threading.Lock()  # the searches' scratch slots serve one planner at a time
@@ -266,9 +303,14 @@ def warm_up(checker: BatchChecker) -> None:
     q = np.ascontiguousarray(model[1][model[0]], dtype=float)  # the current state
     # the kernel's threads start on its first parallel call
     epochs = np.array([next_epoch(1 << 20) for _ in range(SEARCH_SLOTS)], np.int64)
+    first_slot = scratch[0].shape[0] - SEARCH_SLOTS
     PK.rrt_connect_many(
         q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0, model,
-        scratch, epochs, 16, scratch[0].shape[0] - SEARCH_SLOTS, q - 1, q + 1, 0.5,
+        scratch, epochs, 16, first_slot, q - 1, q + 1, 0.5,
+    )  # fmt: skip
+    PK.rrt_connect(  # the searches one after the other (rrt_connect_compiled)
+        q, q[None, :], q - 1, q + 1, 0, 0.0, 0.05, 1.0, model, scratch, next_epoch(1 << 20), 16,
+        first_slot, np.full(1, np.iinfo(np.int64).max, np.int64), 0, q - 1, q + 1, 0.5,
     )  # fmt: skip
     PK.shortcut(np.array([q, q + 0.01]), 0, 0.0, 0.05, model, scratch, next_epoch(1 << 20), 1, 1)
     PK.detour(q, q, q, q - 1, q + 1, np.zeros(1), 0, 0.05, model, scratch, next_epoch(1 << 20))
