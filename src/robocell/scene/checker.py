@@ -966,7 +966,7 @@ class CollisionChecker:
             index[k] = len(tables)
             tables.append(cache.tables[key])
         # four cells to a byte (K.pack_tables), each table from a byte of its own
-        packed_values = [K.pack_tables(t.values) for t in tables]
+        packed_values = [t.packed for t in tables]
         sizes = [4 * len(v) for v in packed_values]
         out = (
             index[:n_pairs],

@@ -31,6 +31,7 @@ of it falls from 4.0 % to 1.6 %.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import os
@@ -69,6 +70,12 @@ class PairTable:
     variables: tuple[int, ...]
     n: int
     values: NDArray[np.uint8]
+
+    @functools.cached_property
+    def packed(self) -> NDArray[np.uint8]:
+        """``values`` four cells to a byte, as the kernel reads them (K.pack_tables): packed
+        once per table, however many checkers use it."""
+        return K.pack_tables(self.values)
 
     def lookup(self, positions: NDArray[np.float64]) -> int:
         """The cell's value for a full variable vector (the kernel does the same)."""
