@@ -69,6 +69,85 @@ def _centre(n, b, TB, S, W, stamp, cur):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
+def world_distance_grid(obs_kind, obs_T, obs_dims, frame, dims, cap):  # type: ignore[no-untyped-def]
+    """The values of the world's distance grid (see :func:`_world_clear`): at each grid point
+    (flat, x slowest), the distance to the nearest obstacle, or ``cap`` where every obstacle is
+    farther (or at least as far) than that, lowered a little so that float32 keeps them lower
+    bounds. ``frame``: origin (3), spacing, and the obstacles' bounding box (lo 3, hi 3)."""
+    nx, ny, nz = dims[0], dims[1], dims[2]
+    ox, oy, oz, h = frame[0], frame[1], frame[2], frame[3]
+    out = np.full(nx * ny * nz, cap)
+    ext = np.empty(3)
+    for o in range(obs_kind.shape[0]):
+        T, d = obs_T[o], obs_dims[o]
+        for i in range(3):  # the half extents of the obstacle's box in the grid's axes
+            if obs_kind[o] == OBS_BOX:
+                ext[i] = abs(T[i, 0]) * d[0] + abs(T[i, 1]) * d[1] + abs(T[i, 2]) * d[2]
+            elif obs_kind[o] == OBS_CYLINDER:
+                ext[i] = abs(T[i, 2]) * d[1] + d[0] * math.sqrt(max(0.0, 1.0 - T[i, 2] ** 2))
+            else:
+                ext[i] = d[0]
+        # only the grid points within ``cap`` of the obstacle's box can come nearer than cap
+        lo_i = max(0, int(math.floor((T[0, 3] - ext[0] - cap - ox) / h)))
+        hi_i = min(nx - 1, int(math.ceil((T[0, 3] + ext[0] + cap - ox) / h)))
+        lo_j = max(0, int(math.floor((T[1, 3] - ext[1] - cap - oy) / h)))
+        hi_j = min(ny - 1, int(math.ceil((T[1, 3] + ext[1] + cap - oy) / h)))
+        lo_k = max(0, int(math.floor((T[2, 3] - ext[2] - cap - oz) / h)))
+        hi_k = min(nz - 1, int(math.ceil((T[2, 3] + ext[2] + cap - oz) / h)))
+        for i in range(lo_i, hi_i + 1):
+            x = ox + i * h
+            for j in range(lo_j, hi_j + 1):
+                y = oy + j * h
+                row = (i * ny + j) * nz
+                for k in range(lo_k, hi_k + 1):
+                    v = _obstacle_distance(x, y, oz + k * h, obs_kind[o], T, d)
+                    if v < out[row + k]:
+                        out[row + k] = v
+    values = np.empty(out.shape[0], np.float32)
+    for n in range(out.shape[0]):
+        values[n] = max(0.0, out[n] * (1.0 - 1e-6) - 1e-6)
+    return values
+
+
+@njit(cache=True, inline="always")
+def _world_clear(x, y, z, r, frame, dims, values):  # type: ignore[no-untyped-def]
+    """Whether the sphere (x, y, z, r) is clear of every obstacle of the world, by a lower
+    bound on its centre's distance to them: the distance to the obstacles' bounding box, or
+    the value at the nearest grid point less the distance to it (a distance field changes no
+    faster than the point moves). One lookup for a body instead of a test per obstacle."""
+    ex = max(frame[4] - x, x - frame[7], 0.0)
+    ey = max(frame[5] - y, y - frame[8], 0.0)
+    ez = max(frame[6] - z, z - frame[9], 0.0)
+    if ex * ex + ey * ey + ez * ez > r * r:
+        return True
+    h = frame[3]
+    i = min(max(int((x - frame[0]) / h + 0.5), 0), dims[0] - 1)
+    j = min(max(int((y - frame[1]) / h + 0.5), 0), dims[1] - 1)
+    k = min(max(int((z - frame[2]) / h + 0.5), 0), dims[2] - 1)
+    dx = x - (frame[0] + i * h)
+    dy = y - (frame[1] + j * h)
+    dz = z - (frame[2] + k * h)
+    bound = values[(i * dims[1] + j) * dims[2] + k] - math.sqrt(dx * dx + dy * dy + dz * dz)
+    return bound > r
+
+
+@njit(cache=True, inline="always")
+def _body_clear(b, TB, nodes, body_root, W, stamp, cur, mark, frame, dims, values):  # type: ignore[no-untyped-def]
+    """:func:`_world_clear` for body b's bounding sphere, once per state: ``mark[b]`` holds
+    the state's stamp ``cur`` if it is clear, −cur − 2 if not (−1: not yet asked)."""
+    m = mark[b]
+    if m == cur:
+        return True
+    if m == -cur - 2:
+        return False
+    r0 = body_root[b]
+    _centre(r0, b, TB, nodes, W, stamp, cur)
+    clear = _world_clear(W[r0, 0], W[r0, 1], W[r0, 2], nodes[r0, 3], frame, dims, values)
+    mark[b] = cur if clear else -cur - 2
+    return clear
+
+
+@njit(cache=True)
 def _tree_touches_obstacle(b, root, nodes, left, right, TB, W, stamp, cur, kind, To, dims, stack):  # type: ignore[no-untyped-def]
     sp = 1
     stack[0] = root
@@ -980,6 +1059,10 @@ MODEL_FIELDS = (
     "world_group_start",
     "world_group_union",
     "world_group_count",
+    "world_run_end",
+    "world_frame",
+    "world_dims",
+    "world_values",
 )
 
 
@@ -1040,8 +1123,9 @@ def _inner_overlap(a, b, rb, TB, nodes, inner, inner_start, W, Wi, stamp_i, cur)
 # Inlined into _classify_range, which is compiled without numba's reference counting.
 @njit(cache=True, inline="always")
 def _classify_state(
-    q, TB, model, W, stamp, Wi, stamp_i, seen, pairs, cur, stack, stack2, stack3, flags, status
-):  # type: ignore[no-untyped-def]
+    q, TB, model, W, stamp, Wi, stamp_i, seen, pairs, cur, stack, stack2, stack3, flags, status,
+    mark,
+):  # type: ignore[no-untyped-def]  # fmt: skip
     """FREE / HIT / UNSURE for one state (full variables q, body poses in TB). Unsure pairs
     are flagged (world pairs first, then self pairs) for the exact stage. ``seen``: per-triangle
     marks, tagged ``cur * PAIR_TAGS + pair``. A self pair with a table (pair_tables) is looked
@@ -1105,6 +1189,10 @@ def _classify_state(
         world_group_start,
         world_group_union,
         world_group_count,
+        world_run_end,
+        world_frame,
+        world_dims,
+        world_values,
     ) = model
     n_world = world_pairs.shape[0]
     unsure = False
@@ -1117,8 +1205,14 @@ def _classify_state(
         g = world_group_start[k]
         if g >= 0:
             # the pairs k … k + count − 1 are members of a rigid cluster against obstacle o:
-            # the union's bounding sphere clear of it clears them all
+            # the union's bounding sphere clear of it, or of the whole world, clears them all
             u = world_group_union[g]
+            if _body_clear(
+                u, TB, nodes, body_root, W, stamp, cur, mark, world_frame, world_dims,
+                world_values,
+            ):  # fmt: skip
+                skip_to = world_run_end[k]
+                continue
             ru = body_root[u]
             _centre(ru, u, TB, nodes, W, stamp, cur)
             dx = W[ru, 0] - obs_sphere[o, 0]
@@ -1134,7 +1228,14 @@ def _classify_state(
             ):
                 skip_to = k + world_group_count[g]
                 continue
-        # broadphase: the body's bounding sphere against the obstacle's
+        # broadphase: the body's bounding sphere against the whole world's distance grid,
+        # then against the obstacle's bounding sphere
+        if _body_clear(
+            b, TB, nodes, body_root, W, stamp, cur, mark, world_frame, world_dims, world_values
+        ):
+            if g < 0:  # and the body's next pairs, against other obstacles
+                skip_to = world_run_end[k]
+            continue
         r0 = body_root[b]
         _centre(r0, b, TB, nodes, W, stamp, cur)
         dx = W[r0, 0] - obs_sphere[o, 0]
@@ -1376,8 +1477,8 @@ def _classify_state(
 @njit(cache=True, inline="always")
 def _range_buffers(model):  # type: ignore[no-untyped-def]
     """The work arrays of one :func:`_classify_range` call: body poses, the full variable
-    vector (the model's, to be overwritten in the group's variables), three descent stacks
-    and the self pairs' status."""
+    vector (the model's, to be overwritten in the group's variables), three descent stacks,
+    the self pairs' status and the bodies' marks of :func:`_body_clear`."""
     return (
         np.empty((model[12].shape[0], 3, 4)),
         model[1].copy(),
@@ -1385,6 +1486,7 @@ def _range_buffers(model):  # type: ignore[no-untyped-def]
         np.empty((512, 2), np.int64),
         np.empty(256, np.int64),
         np.empty(model[26].shape[0], np.int8),
+        np.full(model[12].shape[0], -1, np.int64),
     )
 
 
@@ -1425,7 +1527,7 @@ def _classify_range(
     ]
     body_link, body_T = model[12], model[13]
     B = body_link.shape[0]
-    TB, q, stack, stack2, stack3, status = buffers
+    TB, q, stack, stack2, stack3, status, mark = buffers
     for s in range(s0, s1):
         for i in range(group_idx.shape[0]):
             q[group_idx[i]] = qs[s, i]
@@ -1457,6 +1559,7 @@ def _classify_range(
             stack3,
             row,
             status,
+            mark,
         )
         if stop_early and out[s] != FREE:
             return

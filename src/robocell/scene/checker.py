@@ -146,6 +146,86 @@ def _bounding_sphere(o: Obstacle) -> NDArray[np.float64]:
     return np.array([*o.T_scene_shape[:3, 3], r * (1 + 1e-9) + 1e-12])
 
 
+def _world_runs(
+    pairs: NDArray[np.int64],
+    group_start: NDArray[np.int64],
+    group_union: NDArray[np.int64],
+    group_count: NDArray[np.int64],
+) -> NDArray[np.int64]:
+    """For each world pair k, the end of the run of pairs from k on that one body's test
+    against the whole world clears (``K._world_clear``): the body's next pairs, or for a
+    group's first pair (a cluster's members against one obstacle), the groups of the same
+    cluster that follow it (that is the union's run; the member of that first pair clears
+    only its own). A pair inside a group's block ends its own run."""
+    n = len(pairs)
+    run_end = np.arange(1, n + 1, dtype=np.int64)
+    in_group = np.zeros(n, np.bool_)
+    for k in np.flatnonzero(group_start >= 0):
+        in_group[k : k + group_count[group_start[k]]] = True
+    for k in range(n - 1, -1, -1):
+        g = group_start[k]
+        if g >= 0:
+            end = k + int(group_count[g])
+            nxt = group_start[end] if end < n else -1
+            same = nxt >= 0 and group_union[nxt] == group_union[g]
+            run_end[k] = run_end[end] if same else end
+        elif not in_group[k] and k + 1 < n and not in_group[k + 1]:
+            if pairs[k + 1, 0] == pairs[k, 0]:
+                run_end[k] = run_end[k + 1]
+    return run_end
+
+
+WORLD_GRID_POINTS = 1 << 18  # at most, in the world's distance grid (1 MB of float32)
+_WORLD_GRIDS: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = {}
+
+
+def world_grid(
+    kind: NDArray[np.int64], T: NDArray[np.float64], dims: NDArray[np.float64], cap: float
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float32]]:
+    """The world's distance grid for the kernel's first test of a body against the world
+    (``K._world_clear``): (frame: origin, spacing, the obstacles' bounding box; grid points
+    per axis; values, see ``K.world_distance_grid``). It spans the obstacles' box grown by
+    ``cap`` [m], at most WORLD_GRID_POINTS points 1 cm apart or more. Kept for the last few
+    worlds: a checker is built for each candidate grasp and place in the same world."""
+    key = (kind.tobytes(), T.tobytes(), dims.tobytes(), cap)
+    hit = _WORLD_GRIDS.get(key)
+    if hit is not None:
+        return hit  # type: ignore[return-value]
+    if len(kind) == 0:
+        out = (
+            np.array([0.0, 0, 0, 1, 0, 0, 0, 0, 0, 0]),
+            np.ones(3, np.int64),
+            np.zeros(1, np.float32),
+        )
+    else:
+        R = np.abs(T[:, :3, :3])
+        ext = np.where(
+            (kind == K.OBS_BOX)[:, None],
+            np.einsum("nij,nj->ni", R, dims),
+            np.where(
+                (kind == K.OBS_CYLINDER)[:, None],
+                R[:, :, 2] * dims[:, 1:2]
+                + dims[:, :1] * np.sqrt(np.clip(1 - T[:, :3, 2] ** 2, 0, None)),
+                dims[:, :1] * np.ones(3),
+            ),
+        )
+        lo = (T[:, :3, 3] - ext).min(axis=0)
+        hi = (T[:, :3, 3] + ext).max(axis=0)
+        size = hi - lo + 2 * cap
+        h = max(0.01, float(np.prod(size) / WORLD_GRID_POINTS) ** (1 / 3))
+        n = np.ceil(size / h).astype(np.int64) + 1
+        while np.prod(n) > WORLD_GRID_POINTS:
+            h *= 1.05
+            n = np.ceil(size / h).astype(np.int64) + 1
+        frame = np.concatenate([lo - cap, [h], lo, hi])
+        values = K.world_distance_grid(kind, T, dims, frame, n, cap)
+        out = (frame, n, values)
+    _WORLD_GRIDS[key] = out
+    while len(_WORLD_GRIDS) > 8:
+        _WORLD_GRIDS.pop(next(iter(_WORLD_GRIDS)))
+    return out
+
+
 def coal_geometry(shape: Shape) -> object:
     """The coal collision geometry of a shape."""
     import coal
@@ -853,6 +933,9 @@ class CollisionChecker:
             world_group_start[g.pairs[0]] = gi
             world_group_union[gi] = n_robot + g.union
             world_group_count[gi] = len(g.pairs)
+        world_run_end = _world_runs(
+            self._world_pairs, world_group_start, world_group_union, world_group_count
+        )
         n_groups = len(self._groups)
         group_start = np.full(len(self.self_pairs), -1, np.int64)
         group_bodies = np.zeros((n_groups, 2), np.int64)
@@ -861,6 +944,13 @@ class CollisionChecker:
             group_start[g.pairs[0]] = gi
             group_bodies[gi] = (kmap[g.body], n_robot + g.union)
             group_count[gi] = len(g.pairs)
+        # the world's distance grid reaches as far out as the widest body's bounding sphere
+        # and a margin for the grid's spacing (a body nearer than its radius is tested
+        # against each obstacle)
+        bodies_w = np.union1d(self._world_pairs[:, 0], world_group_union)
+        radii = packed.nodes[packed.body_root[bodies_w], 3]
+        cap = min(1.0, float(radii.max(initial=0.0)) + 0.1)
+        self._world_grid = world_grid(self._obs_kind, self._obs_T, self._obs_dims, cap)
         args = tree_args(robot)
         self._args = args
         moving_links = sorted({int(x) for x in body_link})
@@ -905,6 +995,8 @@ class CollisionChecker:
             world_group_start,
             world_group_union,
             world_group_count,
+            world_run_end,
+            *self._world_grid,
         )
         assert len(self._model) == len(K.MODEL_FIELDS)
 
