@@ -445,3 +445,45 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
         ):
             return True, w, stats
     return False, w, stats
+
+
+# The entry points called from Python, on a checker's SK.KernelInputs (one object to pass
+# instead of the model's and the scratch's 69 arrays: see SK.KernelInputs).
+@njit(cache=True, nogil=True)
+def rrt_connect_many_in(
+    start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epochs, cap,
+    first_slot, box_lo, box_hi, p_box,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """:func:`rrt_connect_many` on a KernelInputs."""
+    return rrt_connect_many(
+        start, goals, lower, upper, seeds, deadline, resolution, step, inputs.model,
+        inputs.scratch, epochs, cap, first_slot, box_lo, box_hi, p_box,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def rrt_connect_in(
+    start, goals, lower, upper, seed, deadline, resolution, step, inputs, epoch, cap, slot,
+    found, me, box_lo, box_hi, p_box,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """:func:`rrt_connect` on a KernelInputs."""
+    return rrt_connect(
+        start, goals, lower, upper, seed, deadline, resolution, step, inputs.model,
+        inputs.scratch, epoch, cap, slot, found, me, box_lo, box_hi, p_box,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def shortcut_in(path, seed, deadline, resolution, inputs, epoch, max_tries, budget):  # type: ignore[no-untyped-def]
+    """:func:`shortcut` on a KernelInputs."""
+    return shortcut(
+        path, seed, deadline, resolution, inputs.model, inputs.scratch, epoch, max_tries, budget
+    )
+
+
+@njit(cache=True)
+def detour_in(a, b, near, lower, upper, radii, seed, resolution, inputs, epoch):  # type: ignore[no-untyped-def]
+    """:func:`detour` on a KernelInputs."""
+    return detour(
+        a, b, near, lower, upper, radii, seed, resolution, inputs.model, inputs.scratch, epoch
+    )

@@ -448,8 +448,7 @@ class Planner:
         from robocell.planning import _kernels as PK
         from robocell.scene.checker import next_epoch
 
-        model, scratch = checker.kernel_inputs()
-        found, via, _ = PK.detour(
+        found, via, _ = PK.detour_in(
             np.ascontiguousarray(a, dtype=float),
             np.ascontiguousarray(b, dtype=float),
             np.ascontiguousarray(near, dtype=float),
@@ -458,8 +457,7 @@ class Planner:
             _radii(tries),
             int(rng.integers(2**31)),
             self.config.validation_resolution,
-            model,
-            scratch,
+            checker.compiled_inputs,
             next_epoch(1 << 40),
         )
         return via if found else None

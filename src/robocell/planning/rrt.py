@@ -199,7 +199,8 @@ def rrt_connect_compiled(
     from robocell.planning import _kernels as PK
     from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 
-    model, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
+    _, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
+    inputs = edges.checker.compiled_inputs  # type: ignore[attr-defined]
     searches = max(1, min(searches, SEARCH_SLOTS))
     first_slot = scratch[0].shape[0] - SEARCH_SLOTS
     seeds = rng.integers(2**31, size=searches)
@@ -215,9 +216,9 @@ def rrt_connect_compiled(
         if side_by_side is None:
             side_by_side = searches > 1 and _threadsafe_layer()
         if side_by_side:
-            paths, lengths, statuses, stats, found = PK.rrt_connect_many(
-                start, goals, lower, upper, seeds, deadline, edges.resolution, step, model,
-                scratch, epochs, cap, first_slot, box_lo, box_hi, box_share,
+            paths, lengths, statuses, stats, found = PK.rrt_connect_many_in(
+                start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
+                epochs, cap, first_slot, box_lo, box_hi, box_share,
             )  # fmt: skip
             results = [
                 (paths[i, : lengths[i]], int(statuses[i]), stats[i]) for i in range(searches)
@@ -227,10 +228,10 @@ def rrt_connect_compiled(
             # an earlier one that found a path, so the same one wins
             found = np.full(searches, np.iinfo(np.int64).max, np.int64)
             results = [
-                PK.rrt_connect(
+                PK.rrt_connect_in(
                     start, goals, lower, upper, int(seeds[i]), deadline, edges.resolution, step,
-                    model, scratch, int(epochs[i]), cap, first_slot + i, found, i, box_lo,
-                    box_hi, box_share,
+                    inputs, int(epochs[i]), cap, first_slot + i, found, i, box_lo, box_hi,
+                    box_share,
                 )
                 for i in range(searches)
             ]  # fmt: skip
@@ -272,14 +273,12 @@ def shortcut_compiled(
     from robocell.planning import _kernels as PK
     from robocell.scene.checker import next_epoch
 
-    model, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
-    out, stats = PK.shortcut(
+    out, stats = PK.shortcut_in(
         np.ascontiguousarray(path, dtype=float),
         int(rng.integers(2**31)),
         deadline,
         edges.resolution,
-        model,
-        scratch,
+        edges.checker.compiled_inputs,  # type: ignore[attr-defined]
         next_epoch(1 << 40),
         max_tries,
         (1 << 62) if budget is None else int(budget),
@@ -300,20 +299,21 @@ def warm_up(checker: BatchChecker) -> None:
     from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 
     model, scratch = checker.kernel_inputs()  # type: ignore[attr-defined]
+    inputs = checker.compiled_inputs  # type: ignore[attr-defined]
     q = np.ascontiguousarray(model[1][model[0]], dtype=float)  # the current state
     # the kernel's threads start on its first parallel call
     epochs = np.array([next_epoch(1 << 20) for _ in range(SEARCH_SLOTS)], np.int64)
     first_slot = scratch[0].shape[0] - SEARCH_SLOTS
-    PK.rrt_connect_many(
-        q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0, model,
-        scratch, epochs, 16, first_slot, q - 1, q + 1, 0.5,
+    PK.rrt_connect_many_in(
+        q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0, inputs,
+        epochs, 16, first_slot, q - 1, q + 1, 0.5,
     )  # fmt: skip
-    PK.rrt_connect(  # the searches one after the other (rrt_connect_compiled)
-        q, q[None, :], q - 1, q + 1, 0, 0.0, 0.05, 1.0, model, scratch, next_epoch(1 << 20), 16,
+    PK.rrt_connect_in(  # the searches one after the other (rrt_connect_compiled)
+        q, q[None, :], q - 1, q + 1, 0, 0.0, 0.05, 1.0, inputs, next_epoch(1 << 20), 16,
         first_slot, np.full(1, np.iinfo(np.int64).max, np.int64), 0, q - 1, q + 1, 0.5,
     )  # fmt: skip
-    PK.shortcut(np.array([q, q + 0.01]), 0, 0.0, 0.05, model, scratch, next_epoch(1 << 20), 1, 1)
-    PK.detour(q, q, q, q - 1, q + 1, np.zeros(1), 0, 0.05, model, scratch, next_epoch(1 << 20))
+    PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1)
+    PK.detour_in(q, q, q, q - 1, q + 1, np.zeros(1), 0, 0.05, inputs, next_epoch(1 << 20))
     PK._clock()  # through numba's object mode (off Linux), 50 ms on its first call (measured)
     from robocell.trajectory.path import arc_states  # the final check's corners
 

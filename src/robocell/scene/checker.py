@@ -1082,9 +1082,9 @@ class CollisionChecker:
             return
         q = np.tile(self.base_positions[self.group.indices], (CHUNK + 1, 1))
         for record in (False, True):
-            K.classify(q, self._model, self._scratch, next_epoch(len(q)), record, CHUNK)
-            K.classify_serial(q[:1], self._model, self._scratch, next_epoch(1), record)
-        K.classify_serial(q[:1], self._model, self._scratch, next_epoch(1), True, True)
+            K.classify_in(q, self._inputs, next_epoch(len(q)), record, CHUNK)
+            K.classify_serial_in(q[:1], self._inputs, next_epoch(1), record)
+        K.classify_serial_in(q[:1], self._inputs, next_epoch(1), True, True)
         _WARM[0] = True
 
     # ------------------------------------------------------------------ exact level
@@ -1191,12 +1191,8 @@ class CollisionChecker:
         """classify on an already validated (N, dof) C-contiguous array."""
         epoch = next_epoch(q.shape[0])
         if q.shape[0] <= CHUNK:
-            return K.classify_serial(  # type: ignore[no-any-return]
-                q, self._model, self._scratch, epoch, pair_flags
-            )
-        return K.classify(  # type: ignore[no-any-return]
-            q, self._model, self._scratch, epoch, pair_flags, CHUNK
-        )
+            return K.classify_serial_in(q, self._inputs, epoch, pair_flags)  # type: ignore[no-any-return]
+        return K.classify_in(q, self._inputs, epoch, pair_flags, CHUNK)  # type: ignore[no-any-return]
 
     def check(self, qs: ArrayLike) -> NDArray[np.bool_]:
         """(N,) bool, True where the configuration (N, dof) is in collision."""
@@ -1286,6 +1282,22 @@ class CollisionChecker:
         planner): see K.MODEL_FIELDS. Stamps must come from :func:`next_epoch`."""
         return self._model, self._scratch
 
+    @property
+    def compiled_inputs(self) -> K.KernelInputs:
+        """:meth:`kernel_inputs` as one object, for compiled entry points called from
+        Python (K.KernelInputs: cheaper to pass than the tuples)."""
+        return self._inputs
+
+    @property
+    def _model(self) -> tuple[Any, ...]:
+        """The kernel's model (K.MODEL_FIELDS); setting it rebuilds :attr:`compiled_inputs`."""
+        return self._model_tuple
+
+    @_model.setter
+    def _model(self, model: tuple[Any, ...]) -> None:
+        self._model_tuple = model
+        self._inputs = K.kernel_inputs(model, self._scratch)
+
     def first_collision(self, qs: ArrayLike) -> int:
         """Index of the first state of ``qs`` (N, dof) in collision, N if none: states are
         checked in order and the scan stops at the first collision (an edge check)."""
@@ -1296,9 +1308,7 @@ class CollisionChecker:
         start = 0
         while start < n:
             sub = q[start:]
-            cls, flags = K.classify_serial(
-                sub, self._model, self._scratch, next_epoch(len(sub)), True, True
-            )
+            cls, flags = K.classify_serial_in(sub, self._inputs, next_epoch(len(sub)), True, True)
             i = int(np.argmax(cls != K.FREE))
             if cls[i] == K.FREE:
                 return n
