@@ -70,7 +70,7 @@ else:
         return t
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _free_prefix(a, b, resolution, model, sc, epoch, buf):  # type: ignore[no-untyped-def]
     """(free states after a on the segment a → b, states on it), the states at most
     ``resolution`` apart per joint, b included, a not; checked on scanner ``sc``
@@ -125,7 +125,7 @@ def _nearest(Q, n, q):  # type: ignore[no-untyped-def]
     return arg
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats):  # type: ignore[no-untyped-def]
     """Grow the tree (Q, P, n nodes) from node i towards q_to by at most ``step`` (L∞), as far
     as it is free: the new node's index, or −1 if not even the first state is free."""
@@ -297,7 +297,7 @@ def rrt_connect_many(
     return paths, lengths, statuses, stats, found
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _edge_free(a, b, resolution, model, sc, epoch, buf, stats):  # type: ignore[no-untyped-def]
     """Whether the segment a → b (b included, a assumed free) is free, its states at most
     ``resolution`` apart per joint, stopping at the first state that is not FREE. Every 8th
