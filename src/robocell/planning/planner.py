@@ -36,7 +36,7 @@ from robocell.planning.rrt import (
 from robocell.robot.model import JointGroup
 from robocell.scene.checker import CollisionChecker
 from robocell.scene.planning_scene import PlanningScene
-from robocell.trajectory.path import BlendedPath, arc_states
+from robocell.trajectory.path import BlendedPath
 from robocell.trajectory.timing import time_optimal
 
 NATIVE_PLANNERS = ("", "rrtconnect", "robocell")
@@ -478,17 +478,26 @@ class Planner:
         corners are kept sharp (the motion stops at each) instead. A path checked rounded
         first cost a second check whenever a corner cut into an obstacle, as shortened paths
         that skirt one often do."""
-        res = self.config.validation_resolution
+        from robocell.planning import _kernels as PK
+        from robocell.scene.checker import CHUNK, next_epoch
+
+        dev = self.config.max_deviation
+        states, segment, cls, flags, arcs, arc_cls, arc_flags = PK.validate_path(
+            np.ascontiguousarray(path, dtype=float),
+            self.config.validation_resolution,
+            dev,
+            not segments_checked,
+            checker.compiled_inputs,
+            next_epoch(1 << 40),
+            CHUNK,
+        )
         if not segments_checked:
-            hits = _first_hits(checker, path, res)
+            hits = _hits(states, segment, np.flatnonzero(checker.settle(states, cls, flags)))
             if hits:
                 # naming the colliding pair costs as much as the check: the caller does it
                 return False, 0.0, hits[min(hits)].first, hits
-        dev = self.config.max_deviation
-        if dev > 0 and len(path) > 2:
-            arcs = arc_states(path, dev, res)
-            if len(arcs) and checker.check(arcs).any():
-                dev = 0.0
+        if len(arcs) and checker.settle(arcs, arc_cls, arc_flags).any():
+            dev = 0.0
         return True, dev, np.empty(0), {}
 
 
@@ -507,8 +516,17 @@ def _first_hits(
 ) -> dict[int, Hit]:
     """Where each of the path's straight segments that collides at ``resolution`` does, by
     segment index (all states checked in one batch)."""
-    states, segment = _segment_states(path, resolution)
-    hit = np.flatnonzero(checker.check(states))
+    from robocell.planning import _kernels as PK
+
+    states, segment = PK.segment_states(np.ascontiguousarray(path, dtype=float), resolution)
+    return _hits(states, segment, np.flatnonzero(checker.check(states)))
+
+
+def _hits(
+    states: NDArray[np.float64], segment: NDArray[np.int64], hit: NDArray[np.int64]
+) -> dict[int, Hit]:
+    """:func:`_first_hits` from a path's segment states, the segment of each, and the
+    indices of those that collide."""
     hits: dict[int, Hit] = {}
     for k in np.unique(segment[hit]):
         on = hit[segment[hit] == k]
@@ -516,20 +534,6 @@ def _first_hits(
         # the state before a segment's first is the previous segment's last: its start
         hits[int(k)] = Hit(states[on[0]], states[on[0] - 1], states[min(on[-1] + 1, end)])
     return hits
-
-
-def _segment_states(
-    path: NDArray[np.float64], resolution: float
-) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """The states of a path's straight segments, consecutive ones at most ``resolution`` apart
-    in every joint (the path's start first, on segment 0), and the index of the segment each
-    lies on."""
-    steps = np.maximum(1, np.ceil(np.abs(np.diff(path, axis=0)).max(axis=1) / resolution))
-    segment = np.repeat(np.arange(len(path) - 1), steps.astype(np.int64))
-    start = np.concatenate([[0], np.cumsum(steps)[:-1]])
-    t = (np.arange(len(segment)) - start[segment] + 1) / steps[segment]
-    states = path[segment] + t[:, None] * (path[segment + 1] - path[segment])
-    return np.vstack([path[:1], states]), np.concatenate([[0], segment])
 
 
 @functools.lru_cache(maxsize=8)

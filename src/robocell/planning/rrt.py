@@ -315,9 +315,8 @@ def warm_up(checker: BatchChecker) -> None:
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1)
     PK.detour_in(q, q, q, q - 1, q + 1, np.zeros(1), 0, 0.05, inputs, next_epoch(1 << 20))
     PK._clock()  # through numba's object mode (off Linux), 50 ms on its first call (measured)
-    from robocell.trajectory.path import arc_states  # the final check's corners
-
-    arc_states(np.array([q, q + 0.1, q + 0.2 * (np.arange(q.shape[0]) % 2)]), 0.05, 0.01)
+    corner = np.array([q, q + 0.1, q + 0.2 * (np.arange(q.shape[0]) % 2)])  # the final check
+    PK.validate_path(corner, 0.01, 0.05, True, inputs, next_epoch(1 << 20), 64)
     _WARM[0] = True
 
 

@@ -1200,6 +1200,15 @@ class CollisionChecker:
         if self.static_collisions:
             return np.ones(q.shape[0], dtype=bool)
         cls, flags = self._classify(q, True)
+        return self.settle(q, cls, flags)
+
+    def settle(
+        self, q: NDArray[np.float64], cls: NDArray[np.int8], flags: NDArray[np.bool_]
+    ) -> NDArray[np.bool_]:
+        """:meth:`check`'s answer for states (N, dof) the kernel classified (``cls``, with
+        the unsure pairs' ``flags``): its HITs, and its UNSURE states settled by coal."""
+        if self.static_collisions:
+            return np.ones(q.shape[0], dtype=bool)
         out = cls == K.HIT
         unsure = np.flatnonzero(cls == K.UNSURE)
         if len(unsure):

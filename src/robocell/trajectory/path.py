@@ -218,9 +218,10 @@ def arc_states(
 ) -> NDArray[np.float64]:
     """``BlendedPath(waypoints, max_deviation).sample_states(resolution, arcs_only=True)``
     without building the path: the points of its rounded corners, consecutive ones at most
-    ``resolution`` apart in every joint, ends included; (0, dof) if there are none (the
-    planner checks them for every plan: about 10 µs for four waypoints, compiled; 85 µs in
-    numpy, 150–177 µs through BlendedPath, measured)."""
+    ``resolution`` apart in every joint, ends included; (0, dof) if there are none (about
+    10 µs for four waypoints, compiled; 85 µs in numpy, 150–177 µs through BlendedPath,
+    measured; the planner's final check computes them in its kernel,
+    ``planning._kernels.validate_path``)."""
     wp = _ArcLengthPath._clean(waypoints)
     u, _, c = _corner_arcs(wp, max_deviation, None)
     return TK.arc_points(  # type: ignore[no-any-return]
