@@ -81,9 +81,12 @@ def test_stop_and_preempt_in_physics(cell):
     cell.world.step(200)
     assert np.allclose(c.current_positions(), q_hold, atol=1e-4)  # holds
     first = c.execute(ptp(arm, q_hold, q_hold + [0.5, 0, 0, 0, 0, 0], velocity_scaling=0.2))
-    second = c.execute(
-        ptp(arm, c.current_positions(), c.current_positions() + [0, 0.1, 0, 0, 0, 0])
-    )
+    # the world steps in a thread of its own, as fast as it can: held still while the next
+    # trajectory is built from where the arm is, or it may have moved on past the start
+    # tolerance by the time that trajectory is submitted
+    with cell.world.lock:
+        q = c.current_positions()
+        second = c.execute(ptp(arm, q, q + [0, 0.1, 0, 0, 0, 0]))
     assert first.result.status is ExecutionStatus.PREEMPTED
     assert second.wait(30) and second.result.success
 
