@@ -254,6 +254,30 @@ def test_checker_sees_scene_changes(scene, irb120):
     assert not scene.in_collision(q, arm)
 
 
+def test_without_padding_is_one_copy_while_the_scene_stays_as_it_is(scene, irb120):
+    arm = irb120.group("arm")
+    q = np.array([0.0, 0.5, 0.0, 0.0, 0.5, 0.0])
+    T_tcp = fk(arm, q, "tcp")
+    # a ball 10 cm ahead of the tool centre point: free, but not with 20 cm of padding
+    scene.add_shape("ball", Sphere(0.02), Pose.from_matrix(T_tcp) * Pose((0, 0, 0.1)))
+    free = scene.in_collision(q, arm)
+    scene.set_object_padding("ball", 0.2)
+    assert scene.in_collision(q, arm) and not free
+    bare = scene.without_padding(["ball", "can"])
+    assert bare.object_padding("ball") == 0.0 and not bare.in_collision(q, arm)
+    assert scene.object_padding("ball") == 0.2 and scene.in_collision(q, arm)
+    assert scene.without_padding(["ball"]) is bare  # nothing changed: its checkers kept
+    assert bare.checker(arm) is bare.checker(arm)
+    scene.set_joint_positions("gripper", [0.3])
+    again = scene.without_padding(["ball"])
+    assert again is not bare and np.array_equal(again.state.positions, scene.state.positions)
+    assert scene.without_padding(["can"]) is scene  # nothing padded: the scene itself
+    before = _snapshot(scene)
+    with pytest.raises(SceneError, match="unknown object 'bal'; known: .*ball"):
+        scene.without_padding(["bal"])
+    assert _same(before, _snapshot(scene))
+
+
 def test_gripper_joint_state_moves_fingers_in_arm_checks(irb120):
     scene = PlanningScene(irb120)
     arm = irb120.group("arm")

@@ -405,13 +405,7 @@ def reachable_places(
     found_pre = _free_ik(scene, group, eef_link, pre)
     # at the place the held object comes right down onto the surface: no padding there (the
     # approach is made without it), only on the way to the pre-place
-    work = scene
-    held = [a for a in scene.attached_objects if scene.object_padding(a) > 0]
-    if held:
-        work = scene.copy()
-        for a in held:
-            work.set_object_padding(a, 0.0)
-    found = _free_ik(work, group, eef_link, at)
+    found = _free_ik(scene.without_padding(scene.attached_objects), group, eef_link, at)
     return [
         loc
         for loc, a, b in zip(places, found, found_pre, strict=True)

@@ -48,6 +48,7 @@ class PlanningScene:
         self._version = 0
         self._checkers: dict[tuple[object, ...], CollisionChecker] = {}
         self._padding: dict[str, float] = {}
+        self._unpadded: dict[tuple[object, ...], PlanningScene] = {}
 
     # ------------------------------------------------------------------ frames and state
     @property
@@ -89,6 +90,7 @@ class PlanningScene:
     def _changed(self) -> None:
         self._version += 1
         self._checkers.clear()
+        self._unpadded = {}
 
     def add_object(self, obj: CollisionObject) -> None:
         """Add a world object; its id must be new (neither in the world nor held)."""
@@ -129,6 +131,27 @@ class PlanningScene:
     def object_padding(self, id: str) -> float:
         """The padding [m] of an object, in the world or held (0 if none)."""
         return self._padding.get(id, 0.0)
+
+    def without_padding(self, ids: Iterable[str]) -> PlanningScene:
+        """This scene with the padding of objects ``ids`` removed, to be read, not changed
+        (``copy()`` it first): the same copy, and so the same checkers, for as long as this
+        scene, its allowed collisions and its state stay as they are; this scene itself if
+        none of them is padded. (The sorting demo's place candidates asked for such a copy
+        41 times per object, each building a checker of its own: 1.3 s per layout.)"""
+        ids = [*ids]
+        for id in ids:
+            if id not in self._world and id not in self._attached:
+                raise SceneError(unknown("object", id, [*self._world, *self._attached]))
+        padded = tuple(sorted(id for id in ids if id in self._padding))
+        if not padded:
+            return self
+        key = (padded, self._version, self.acm.version, self.state.positions.tobytes())
+        if key not in self._unpadded:
+            other = self.copy()
+            for id in padded:
+                other.set_object_padding(id, 0.0)
+            self._unpadded = {key: other}  # one at a time: each holds checkers
+        return self._unpadded[key]
 
     def add_shape(
         self, id: str, shape: Shape, pose: Pose | ArrayLike | None = None
@@ -332,6 +355,7 @@ class PlanningScene:
         other.acm = self.acm.copy()
         other._checkers = {}
         other._padding = dict(self._padding)
+        other._unpadded = {}
         if hasattr(other, "_whole"):
             del other._whole
         return other
