@@ -160,10 +160,10 @@ def _world_runs(
     n = len(pairs)
     run_end = np.arange(1, n + 1, dtype=np.int64)
     in_group = np.zeros(n, np.bool_)
-    for k in np.flatnonzero(group_start >= 0):
-        in_group[k : k + group_count[group_start[k]]] = True
+    for first in np.flatnonzero(group_start >= 0):
+        in_group[first : first + group_count[group_start[first]]] = True
     for k in range(n - 1, -1, -1):
-        g = group_start[k]
+        g = int(group_start[k])
         if g >= 0:
             end = k + int(group_count[g])
             nxt = group_start[end] if end < n else -1
