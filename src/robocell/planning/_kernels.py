@@ -287,9 +287,10 @@ def rrt_connect_many(
     stats = np.zeros((n, 5), np.int64)
     found = np.full(n, np.iinfo(np.int64).max, np.int64)
     for i in prange(n):
+        me = np.int64(i)  # prange's index is unsigned: rrt_connect would be compiled anew
         path, status, st = rrt_connect(
             start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
-            epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box,
+            epochs[i], cap, first_slot + me, found, me, box_lo, box_hi, p_box,
         )  # fmt: skip
         lengths[i] = path.shape[0]
         paths[i, : path.shape[0]] = path
@@ -523,8 +524,10 @@ def segment_states(path, resolution):  # type: ignore[no-untyped-def]
 def _classify_all(qs, model, scratch, epoch, chunk):  # type: ignore[no-untyped-def]
     """SK.classify with the unsure pairs' flags, on the threads for more than one chunk."""
     if qs.shape[0] <= chunk:
-        return SK.classify_serial(qs, model, scratch, epoch, True)
-    return SK.classify(qs, model, scratch, epoch, True, chunk)
+        return SK.classify_serial(
+            qs, model, scratch, epoch, np.bool_(True), np.bool_(False), np.int64(0)
+        )
+    return SK.classify(qs, model, scratch, epoch, np.bool_(True), chunk)
 
 
 @njit(cache=True)

@@ -1500,10 +1500,16 @@ def _range_buffers(model):  # type: ignore[no-untyped-def]
 @njit(cache=True, **NRT_OFF)
 def _classify_range(
     s0, s1, qs, model, W, stamp, Wi, stamp_i, seen, pairs, T, epoch, flags, record_flags,
-    scratch_row, out, buffers, stop_early=False,
+    scratch_row, out, buffers, stop_early,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Classify states s0..s1-1: :func:`_classify_states`, compiled on its own (for the
-    batch checks; :func:`scan` has it inlined)."""
+    batch checks; :func:`scan` has it inlined).
+
+    Compiled once, for one signature: its callers pass no constants and leave out no
+    argument, as numba compiles a function anew for each literal (``0``, ``False``) or left
+    out argument it is called with; it had been compiled five times, 48 s each, of a first
+    run's 7 minutes of compiling (measured). Hence the ``np.int64(0)`` and ``np.bool_(False)``
+    in the callers, and no defaults in them either."""
     _classify_states(
         s0, s1, qs, model, W, stamp, Wi, stamp_i, seen, pairs, T, epoch, flags, record_flags,
         scratch_row, out, buffers, stop_early,
@@ -1617,7 +1623,7 @@ def scan(qs, n, model, sc, epoch):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def classify_serial(qs, model, scratch, epoch, record_flags, stop_early=False, slot=0):  # type: ignore[no-untyped-def]
+def classify_serial(qs, model, scratch, epoch, record_flags, stop_early, slot):  # type: ignore[no-untyped-def]
     """:func:`classify` in the calling thread, for batches of at most one chunk: a parallel
     function costs several microseconds more per call even when it runs serially (measured).
     ``stop_early``: stop at the first state that is not FREE; later states stay UNCHECKED.
@@ -1629,7 +1635,7 @@ def classify_serial(qs, model, scratch, epoch, record_flags, stop_early=False, s
     flags = np.zeros((N if record_flags else 0, P), np.bool_)
     row = np.zeros(0 if record_flags else P, np.bool_)
     _classify_range(
-        0,
+        np.int64(0),
         N,
         qs,
         model,
@@ -1688,6 +1694,7 @@ def classify(qs, model, scratch, epoch, record_flags, chunk):  # type: ignore[no
             rows[t],
             out,
             _range_buffers(model),
+            np.bool_(False),
         )
     return out, flags
 
@@ -1717,7 +1724,7 @@ def kernel_inputs(model, scratch):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def classify_serial_in(qs, inputs, epoch, record_flags, stop_early=False, slot=0):  # type: ignore[no-untyped-def]
+def classify_serial_in(qs, inputs, epoch, record_flags, stop_early, slot):  # type: ignore[no-untyped-def]
     """:func:`classify_serial` on a :class:`KernelInputs`."""
     return classify_serial(qs, inputs.model, inputs.scratch, epoch, record_flags, stop_early, slot)
 

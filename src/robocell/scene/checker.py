@@ -1076,15 +1076,14 @@ class CollisionChecker:
         return out
 
     def _warm_up(self) -> None:
-        """Compile (or load from numba's cache) every kernel variant once per process, here
-        rather than inside the first plan's time budget."""
+        """Compile (or load from numba's cache) the batch kernels once per process, here
+        rather than inside the first plan's time budget (one signature each: whatever the
+        flags, a call from Python passes the same types)."""
         if _WARM[0]:
             return
         q = np.tile(self.base_positions[self.group.indices], (CHUNK + 1, 1))
-        for record in (False, True):
-            K.classify_in(q, self._inputs, next_epoch(len(q)), record, CHUNK)
-            K.classify_serial_in(q[:1], self._inputs, next_epoch(1), record)
-        K.classify_serial_in(q[:1], self._inputs, next_epoch(1), True, True)
+        K.classify_in(q, self._inputs, next_epoch(len(q)), False, CHUNK)
+        K.classify_serial_in(q[:1], self._inputs, next_epoch(1), True, True, 0)
         _WARM[0] = True
 
     # ------------------------------------------------------------------ exact level
@@ -1191,7 +1190,7 @@ class CollisionChecker:
         """classify on an already validated (N, dof) C-contiguous array."""
         epoch = next_epoch(q.shape[0])
         if q.shape[0] <= CHUNK:
-            return K.classify_serial_in(q, self._inputs, epoch, pair_flags)  # type: ignore[no-any-return]
+            return K.classify_serial_in(q, self._inputs, epoch, pair_flags, False, 0)  # type: ignore[no-any-return]
         return K.classify_in(q, self._inputs, epoch, pair_flags, CHUNK)  # type: ignore[no-any-return]
 
     def check(self, qs: ArrayLike) -> NDArray[np.bool_]:
@@ -1317,7 +1316,9 @@ class CollisionChecker:
         start = 0
         while start < n:
             sub = q[start:]
-            cls, flags = K.classify_serial_in(sub, self._inputs, next_epoch(len(sub)), True, True)
+            cls, flags = K.classify_serial_in(
+                sub, self._inputs, next_epoch(len(sub)), True, True, 0
+            )
             i = int(np.argmax(cls != K.FREE))
             if cls[i] == K.FREE:
                 return n
