@@ -1,3 +1,4 @@
+from robocell.apps import demo
 from robocell.apps.cli import main
 
 
@@ -14,18 +15,26 @@ def test_no_command_prints_help(capsys):
     assert "info" in capsys.readouterr().out
 
 
-def test_demo_sorts_layout_0_in_physics(capsys):
+def test_demo_sorts_layout_0_in_physics(capsys, monkeypatch, tmp_path):
     """The main job: every object of the seed layout ends in its tray (exit status 0)."""
+    (tmp_path / "demo-ran").touch()  # not the first run: no notice
+    monkeypatch.setattr(demo, "first_run_marker", lambda: tmp_path / "demo-ran")
     assert main(["demo"]) == 0
     out = capsys.readouterr().out
     assert "8/8 objects in their trays" in out
     assert out.count("in its tray") == 8
+    assert "first run" not in out
 
 
-def test_demo_sorts_layout_0_in_kinematic_mode_by_shape(capsys):
-    """Demo mode (no physics): the same solution puts every object in its shape's tray."""
+def test_demo_sorts_layout_0_in_kinematic_mode_by_shape(capsys, monkeypatch, tmp_path):
+    """Demo mode (no physics): the same solution puts every object in its shape's tray. On a
+    first run the demo says first that it compiles, then marks the cache as run."""
+    marker = tmp_path / "cache" / "demo-ran"
+    monkeypatch.setattr(demo, "first_run_marker", lambda: marker)
     assert main(["demo", "--mode", "kinematic", "--by", "shape"]) == 0
     out = capsys.readouterr().out
+    assert out.splitlines()[1].startswith("first run: robocell compiles its kernels")
+    assert marker.exists()
     assert "8/8 objects in their trays" in out
     for name in ("yellow_box", "red_box", "blue_box"):
         assert any(line.startswith(name) and "red_tray" in line for line in out.splitlines())

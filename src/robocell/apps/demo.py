@@ -13,6 +13,11 @@ from types import ModuleType
 from robocell.errors import RobocellError
 
 EXAMPLE = Path(__file__).resolve().parents[3] / "examples" / "sort_cell.py"
+# shown until a demo has run to its end once with this cache (see scene.spheres.cache_root)
+FIRST_RUN = (
+    "first run: robocell compiles its kernels (numba) and builds the robots' collision models "
+    "once, about 4 minutes on 2 cores; later runs start in a few seconds"
+)
 
 
 def load_example(path: Path = EXAMPLE) -> ModuleType:
@@ -29,12 +34,22 @@ def load_example(path: Path = EXAMPLE) -> ModuleType:
     return module
 
 
+def first_run_marker() -> Path:
+    """A file in robocell's cache that says a demo has run to its end there."""
+    from robocell.scene.spheres import cache_root
+
+    return cache_root() / "demo-ran"
+
+
 def run_demo(by: str = "color", layout: int = 0, mode: str = "physics") -> int:
     from robocell.cell import Cell
 
     example = load_example()
     t0 = time.perf_counter()
-    print(f"robocell demo: sorting cell, layout {layout}, by {by}, {mode} mode")
+    print(f"robocell demo: sorting cell, layout {layout}, by {by}, {mode} mode", flush=True)
+    ran = first_run_marker()
+    if not ran.exists():
+        print(FIRST_RUN, flush=True)
     cell = Cell.load("sorting", layout=layout, mode=mode, time_scale=0)
     load_s = time.perf_counter() - t0
     rows = example.sort(cell, by)
@@ -53,4 +68,9 @@ def run_demo(by: str = "color", layout: int = 0, mode: str = "physics") -> int:
         f"(cell loaded in {load_s:.1f} s), {robot:.1f} s of robot motion "
         f"({robot / max(len(rows), 1):.2f} s per object)"
     )
+    try:
+        ran.parent.mkdir(parents=True, exist_ok=True)
+        ran.touch()
+    except OSError:  # a read-only cache: the notice shows again next time, nothing worse
+        pass
     return 0 if done == len(rows) else 1

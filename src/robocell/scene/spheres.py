@@ -628,11 +628,17 @@ def distance_grid(tree: SphereTree) -> DistanceGrid:
 
 
 # ---------------------------------------------------------------------------------- cache
-def _cache_dir() -> Path | None:
+def cache_root() -> Path:
+    """Where robocell keeps what it builds once: ``$ROBOCELL_CACHE``, else
+    ``~/.cache/robocell`` (or under ``$XDG_CACHE_HOME``)."""
     base = os.environ.get("ROBOCELL_CACHE") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "robocell"
     )
-    path = Path(base) / "spheres"
+    return Path(base)
+
+
+def _cache_dir() -> Path | None:
+    path = cache_root() / "spheres"
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError:
