@@ -182,3 +182,37 @@ def test_solvers_do_not_keep_their_robots_alive():
     del robot, arm
     gc.collect()
     assert sum(r() is not None for r in loaded) <= 4  # what the per-robot caches may keep
+
+
+@pytest.mark.parametrize("robot_name", ["irb120", "ur5e"])
+def test_a_line_followed_in_one_call_is_the_line_solved_step_by_step(request, robot_name):
+    """AnalyticIK.follow_line: each step the solution nearest the one before, the same
+    configurations as solve_ik step by step; it stops where a step has no solution or jumps."""
+    robot = request.getfixturevalue(robot_name)
+    arm = robot.group(robot.group_names[0])
+    solver = ik_solver(arm)
+    assert isinstance(solver, AnalyticIK)
+    rng = np.random.default_rng(3)
+    stopped = 0
+    for _ in range(40):
+        q = rng.uniform(arm.lower * 0.8, arm.upper * 0.8)
+        T = fk(arm, q, relative_to=arm.base_link)
+        offset = rng.normal(size=3) * 0.08
+        n = 16
+        along, ok = solver.follow_line(T, offset, q, n, 0.3)
+        expected, q_k = [], q
+        for k in range(1, n + 1):
+            T_k = T.copy()
+            T_k[:3, 3] += offset * (k / n)
+            sols = solve_ik(arm, T_k, seed=q_k).solutions
+            if len(sols) == 0 or np.abs(sols[0] - q_k).max() > 0.3:
+                break
+            q_k = sols[0]
+            expected.append(q_k)
+        assert ok == (len(expected) == n) and len(along) == len(expected)
+        assert np.array_equal(along, np.array(expected).reshape(-1, arm.dof))
+        if ok:
+            end = fk(arm, along[-1], relative_to=arm.base_link)
+            assert np.allclose(end[:3, 3], T[:3, 3] + offset, atol=1e-6)
+        stopped += not ok
+    assert 0 < stopped < 40  # both outcomes were exercised

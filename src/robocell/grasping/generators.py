@@ -33,7 +33,7 @@ from robocell.grasping.grasp import (
     Push,
     up_and_back,
 )
-from robocell.kinematics.ik import NumericIK, ik_solver, solve_ik
+from robocell.kinematics.ik import AnalyticIK, NumericIK, ik_solver, solve_ik
 from robocell.robot.model import JointGroup
 from robocell.scene.checker import CollisionChecker
 from robocell.scene.planning_scene import PlanningScene
@@ -623,6 +623,12 @@ def _line_ok(
     step leaves the joint limits or jumps (by more than ``max_jump`` rad). Each step's
     configuration is appended to ``states`` if given."""
     n = max(1, int(math.ceil(float(np.linalg.norm(offset)) / step)))
+    solver = ik_solver(group, tip_link)
+    if isinstance(solver, AnalyticIK):  # the same steps, compiled
+        along, ok = solver.follow_line(T_start, offset, q, n, max_jump)
+        if states is not None:
+            states.extend(along)
+        return along[-1] if ok else None
     for k in range(1, n + 1):
         T = T_start.copy()
         T[:3, 3] += offset * (k / n)

@@ -424,3 +424,35 @@ def solve_ordered(
             acc += (sols[i, j] - seed[j]) ** 2
         d[i] = acc
     return sols[np.argsort(d, kind="mergesort")]
+
+
+@njit(cache=True)
+def follow_line(
+    kind, p, T_start, offset, n, q, T_canon_base, T_tip_flange, signs, offsets, lower, upper,
+    wrist_index, tol, max_jump,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """The configurations along the straight line from ``T_start`` (URDF base frame) by
+    ``offset`` in ``n`` steps, each the solution nearest the one before (from ``q``), and
+    whether the line was followed to its end: it stops at a step with no solution within the
+    limits, or whose nearest solution jumps by more than ``max_jump`` in some joint (the
+    configurations before that step are returned)."""
+    out = np.empty((n, q.shape[0]))
+    T = T_start.copy()
+    for k in range(1, n + 1):
+        f = k / n
+        for i in range(3):
+            T[i, 3] = T_start[i, 3] + offset[i] * f
+        sols = solve_ordered(
+            kind, p, T, T_canon_base, T_tip_flange, q, signs, offsets, lower, upper,
+            wrist_index, tol,
+        )  # fmt: skip
+        if sols.shape[0] == 0:
+            return out[: k - 1], False
+        jump = 0.0
+        for j in range(q.shape[0]):
+            jump = max(jump, abs(sols[0, j] - q[j]))
+        if jump > max_jump:
+            return out[: k - 1], False
+        q = sols[0].copy()
+        out[k - 1] = q
+    return out, True

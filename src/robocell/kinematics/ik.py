@@ -187,6 +187,29 @@ class AnalyticIK:
         )
         return IKResult(sols, self.name, reason, 1)
 
+    def follow_line(
+        self,
+        T_start: NDArray[np.float64],
+        offset: NDArray[np.float64],
+        q: NDArray[np.float64],
+        steps: int,
+        max_jump: float,
+    ) -> tuple[NDArray[np.float64], bool]:
+        """The configurations along the straight line of the tip from ``T_start`` (base frame)
+        by ``offset`` in ``steps`` equal steps, each the solution nearest the one before
+        (from ``q``, as :meth:`solve` orders them), and whether the line was followed to its
+        end (it stops before a step without a solution or one that jumps by more than
+        ``max_jump`` rad). One compiled call: a Python loop over :func:`solve_ik` cost 67 µs
+        a step, 9000 steps per sorting layout (measured)."""
+        g = self.group
+        return A.follow_line(  # type: ignore[no-any-return]
+            self.kind, self._p, np.ascontiguousarray(T_start, dtype=float),
+            np.ascontiguousarray(offset, dtype=float), int(steps),
+            np.ascontiguousarray(q, dtype=float), self._T_canon_base, self._T_tip_flange,
+            self._signs, self._offsets, g.lower, g.upper, 3 if self.kind == 0 else 5, 1e-7,
+            float(max_jump),
+        )  # fmt: skip
+
 
 @dataclass
 class NumericIKConfig:
