@@ -64,6 +64,7 @@ class IKSolver(Protocol):
 
 
 _EYE3 = np.eye(3)
+_CLOSED_FORM_TOL = 1e-7  # a closed-form solution's pose error that counts as exact
 
 
 def as_target(target: Pose | ArrayLike) -> NDArray[np.float64]:
@@ -115,6 +116,7 @@ class AnalyticIK:
         self._p = params.array()
         self._signs = np.asarray(params.signs, float)
         self._offsets = np.asarray(params.offsets, float)
+        self._wrist = 3 if self.kind == 0 else 5  # the joint whose seed picks a wrist flip
         self.tol_pos, self.tol_rot = tol_pos, tol_rot
         self._fit()
 
@@ -175,8 +177,8 @@ class AnalyticIK:
             self._offsets,
             g.lower,
             g.upper,
-            3 if self.kind == 0 else 5,
-            1e-7,
+            self._wrist,
+            _CLOSED_FORM_TOL,
         )
         if max_solutions > 0:
             sols = sols[:max_solutions]
@@ -206,7 +208,7 @@ class AnalyticIK:
             self.kind, self._p, np.ascontiguousarray(T_start, dtype=float),
             np.ascontiguousarray(offset, dtype=float), int(steps),
             np.ascontiguousarray(q, dtype=float), self._T_canon_base, self._T_tip_flange,
-            self._signs, self._offsets, g.lower, g.upper, 3 if self.kind == 0 else 5, 1e-7,
+            self._signs, self._offsets, g.lower, g.upper, self._wrist, _CLOSED_FORM_TOL,
             float(max_jump),
         )  # fmt: skip
 
