@@ -169,6 +169,27 @@ def test_exact_check_of_one_state_agrees_with_the_batch(scene, irb120):
     assert one[-40:].sum() == 20  # both sides of every contact
 
 
+def test_collides_answers_as_check_does_for_one_state(scene, irb120):
+    """collides(q) is check() of one state: on random states (free, colliding, and the
+    kernel's unsure ones settled exactly), and it refuses a batch or a bad vector."""
+    from tests.conftest import mbm_dir
+
+    stl = mbm_dir() / "ur5" / "meshes" / "robotiq_fts300.stl"  # a mesh: unsure states
+    scene.add_mesh("sensor", Pose((0.35, 0.0, 0.45)), stl, scale=(3, 3, 3))
+    arm = irb120.group("arm")
+    checker = scene.checker(arm)
+    qs = arm.random(np.random.default_rng(5), 600)
+    cls, _ = checker.classify(qs)
+    assert {0, 1, 2} <= set(cls.tolist())  # every class of the kernel is met
+    one = np.array([checker.collides(q) for q in qs])
+    assert np.array_equal(one, checker.check(qs))
+    assert checker.collides(list(qs[0])) == bool(checker.check(qs[:1])[0])
+    with pytest.raises(SceneError, match="one configuration"):
+        checker.collides(qs[:2])
+    with pytest.raises(ModelError, match="NaN"):
+        checker.collides(np.full(arm.dof, np.nan))
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_fast_check_never_calls_a_colliding_state_free(scene, irb120, seed):
     scene.add_sphere("ball", Pose((0.3, -0.3, 0.4)), 0.08)

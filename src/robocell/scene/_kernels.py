@@ -1479,7 +1479,15 @@ def _classify_state(
 def _range_buffers(model):  # type: ignore[no-untyped-def]
     """The work arrays of one :func:`_classify_range` call: body poses, the full variable
     vector (the model's, to be overwritten in the group's variables), three descent stacks,
-    the self pairs' status and the bodies' marks of :func:`_body_clear`."""
+    the self pairs' status, the bodies' marks of :func:`_body_clear`, and which bodies sit
+    at their link's frame (``body_T`` the identity: their pose is the link's, copied)."""
+    body_T = model[13]
+    plain = np.ones(body_T.shape[0], np.bool_)
+    for b in range(body_T.shape[0]):
+        for i in range(3):
+            for j in range(4):
+                if body_T[b, i, j] != (1.0 if i == j else 0.0):
+                    plain[b] = False
     return (
         np.empty((model[12].shape[0], 3, 4)),
         model[1].copy(),
@@ -1488,6 +1496,7 @@ def _range_buffers(model):  # type: ignore[no-untyped-def]
         np.empty(256, np.int64),
         np.empty(model[26].shape[0], np.int8),
         np.full(model[12].shape[0], -1, np.int64),
+        plain,
     )
 
 
@@ -1547,13 +1556,20 @@ def _classify_states(
     ]
     body_link, body_T = model[12], model[13]
     B = body_link.shape[0]
-    TB, q, stack, stack2, stack3, status, mark = buffers
+    TB, q, stack, stack2, stack3, status, mark, plain = buffers
     for s in range(s0, s1):
         for i in range(group_idx.shape[0]):
             q[group_idx[i]] = qs[s, i]
         fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
         for b in range(B):
             L = T[body_link[b]]
+            if plain[b]:
+                # the product below, without its multiplications by 1 and 0 (the same
+                # values): 9 of a Panda's 12 bodies, 65 of a 900 ns state (measured)
+                for i in range(3):
+                    for j in range(4):
+                        TB[b, i, j] = L[i, j]
+                continue
             for i in range(3):
                 for j in range(4):
                     TB[b, i, j] = (

@@ -271,7 +271,8 @@ class PlanningScene:
     def checker(self, group: str | JointGroup) -> CollisionChecker:
         """The batched checker for ``group`` at this scene's contents, other joints as now."""
         g = self.robot.group(group) if isinstance(group, str) else group
-        others = np.delete(self.state.positions, g.indices)
+        others = self.state.positions.copy()
+        others[g.positions] = 0.0  # the other joints' values (np.delete cost 6 µs a plan)
         key = (g.name, self._version, self.acm.version, others.tobytes())
         if key not in self._checkers:
             # a few checkers are kept (a gripper opening and closing switches between two);
