@@ -254,40 +254,17 @@ def rrt_connect_compiled(
     goals = np.ascontiguousarray(goals, dtype=float)
     lower = np.ascontiguousarray(lower, dtype=float)
     upper = np.ascontiguousarray(upper, dtype=float)
-    ends = np.vstack([start, goals])
-    box_lo = np.maximum(lower, ends.min(axis=0) - box_margin)
-    box_hi = np.minimum(upper, ends.max(axis=0) + box_margin)
-    epochs = next_epoch(searches << 40) + (np.arange(searches, dtype=np.int64) << 40)
     with _SEARCH_LOCK:
         if side_by_side is None:
             side_by_side = searches > 1 and _threadsafe_layer()
-        if side_by_side:
-            paths, lengths, statuses, stats, found = PK.rrt_connect_many_in(
-                start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
-                epochs, cap, first_slot, box_lo, box_hi, box_share,
-            )  # fmt: skip
-            results = [
-                (paths[i, : lengths[i]], int(statuses[i]), stats[i]) for i in range(searches)
-            ]
-        else:
-            # one after the other: each later search stops once it has done more work than
-            # an earlier one that found a path, so the same one wins
-            found = np.full(searches, np.iinfo(np.int64).max, np.int64)
-            results = [
-                PK.rrt_connect_in(
-                    start, goals, lower, upper, int(seeds[i]), deadline, edges.resolution, step,
-                    inputs, int(epochs[i]), cap, first_slot + i, found, i, box_lo, box_hi,
-                    box_share,
-                )
-                for i in range(searches)
-            ]  # fmt: skip
-    wins = [i for i, r in enumerate(results) if r[1] == PK.FOUND]
-    best = min(wins, key=lambda i: (int(found[i]), i)) if wins else 0
-    path, status, st = results[best]
+        path, status, st = PK.search_in(
+            start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
+            next_epoch(searches << 40), cap, first_slot, box_margin, box_share, side_by_side,
+        )  # fmt: skip
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
     edges.stats.states += int(st[3])
-    return path.copy() if status == PK.FOUND else None
+    return path if status == PK.FOUND else None
 
 
 def _threadsafe_layer() -> bool:
@@ -353,17 +330,14 @@ def warm_up(checker: BatchChecker) -> None:
     model, scratch = checker.kernel_inputs()  # type: ignore[attr-defined]
     inputs = checker.compiled_inputs  # type: ignore[attr-defined]
     q = np.ascontiguousarray(model[1][model[0]], dtype=float)  # the current state
-    # the kernel's threads start on its first parallel call
-    epochs = np.array([next_epoch(1 << 20) for _ in range(SEARCH_SLOTS)], np.int64)
-    first_slot = scratch[0].shape[0] - SEARCH_SLOTS
-    PK.rrt_connect_many_in(
-        q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0, inputs,
-        epochs, 16, first_slot, q - 1, q + 1, 0.5,
-    )  # fmt: skip
-    PK.rrt_connect_in(  # the searches one after the other (rrt_connect_compiled)
-        q, q[None, :], q - 1, q + 1, 0, 0.0, 0.05, 1.0, inputs, next_epoch(1 << 20), 16,
-        first_slot, np.full(1, np.iinfo(np.int64).max, np.int64), 0, q - 1, q + 1, 0.5,
-    )  # fmt: skip
+    # the searches side by side (the kernel's threads start on the first parallel call) and
+    # one after the other (rrt_connect_compiled)
+    for side_by_side in (True, False):
+        PK.search_in(
+            q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
+            inputs, next_epoch(SEARCH_SLOTS << 40), 16, scratch[0].shape[0] - SEARCH_SLOTS,
+            1.0, 0.5, side_by_side,
+        )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1)
     PK.detour_in(q, q, q, q - 1, q + 1, np.zeros(1), 0, 0.05, inputs, next_epoch(1 << 20))
     PK._clock()  # through numba's object mode (off Linux), 50 ms on its first call (measured)
