@@ -13,10 +13,12 @@ from types import ModuleType
 from robocell.errors import RobocellError
 
 EXAMPLE = Path(__file__).resolve().parents[3] / "examples" / "sort_cell.py"
-# shown until a demo has run to its end once with this cache (see scene.spheres.cache_root)
+# shown until a demo has run to its end once with this cache (see scene.spheres.cache_root);
+# from a fresh clone on 2 cores: 161 s, 221 s with the planning kernels compiled in this
+# process too (planning.precompile; measured)
 FIRST_RUN = (
     "first run: robocell compiles its kernels (numba) and builds the robots' collision models "
-    "once, about 4 minutes on 2 cores; later runs start in a few seconds"
+    "once, under 3 minutes on 2 cores; later runs start in a few seconds"
 )
 
 
@@ -50,6 +52,9 @@ def run_demo(by: str = "color", layout: int = 0, mode: str = "physics") -> int:
     ran = first_run_marker()
     if not ran.exists():
         print(FIRST_RUN, flush=True)
+        from robocell.planning import precompile
+
+        precompile.start()  # the planning kernels compile on the other core meanwhile
     cell = Cell.load("sorting", layout=layout, mode=mode, time_scale=0)
     load_s = time.perf_counter() - t0
     rows = example.sort(cell, by)

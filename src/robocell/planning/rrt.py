@@ -324,6 +324,9 @@ def warm_up(checker: BatchChecker) -> None:
     plan's time budget."""
     if _WARM[0]:
         return
+    from robocell.planning import precompile
+
+    precompile.wait()  # a first run may be compiling them in a second process
     from robocell.planning import _kernels as PK
     from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 

@@ -622,6 +622,12 @@ _EPOCH = [0]
 _WARM = [False]  # the kernels have run once in this process
 
 
+def skip_warm_up() -> None:
+    """Build checkers without compiling the batch kernels first (a process that compiles
+    other kernels only: robocell.planning.precompile)."""
+    _WARM[0] = True
+
+
 def next_epoch(n: int) -> int:
     """The first of n stamps no kernel call has used: the scratch below is shared by every
     checker of a robot, so stamps must be unique across them (kernels hold the GIL, so two

@@ -1,0 +1,91 @@
+"""A first run's compiling on both cores: the planning kernels in a second process while the
+first compiles the collision kernels and loads the cell.
+
+numba compiles in the process that calls a kernel, holding the GIL, one kernel after the
+other: a first run with an empty cache spent 110 of its 200 s on the planning kernels (the
+searches, the shortcut, the detour, the final check) after the 90 s of the collision kernels.
+Those compile just as well in a second process, which leaves them in numba's cache on disk;
+:func:`robocell.planning.rrt.warm_up` waits for it and loads them from there.
+
+``python -m robocell.planning.precompile`` is that second process: it builds a checker of the
+sorting cell's arm (its kernels' types are those of every checker) without compiling the
+collision kernels, and compiles the planning kernels.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+# the process running, if any: started by :func:`start`, waited for by :func:`wait`
+_JOB: list[subprocess.Popen[bytes]] = []
+
+
+def kernels_cached() -> bool:
+    """Whether the planning kernels are in numba's cache already (then nothing is started)."""
+    from pathlib import Path
+
+    from numba.core import config
+
+    from robocell.planning import _kernels as PK
+
+    cache_dir = str(getattr(config, "CACHE_DIR", "") or "")  # NUMBA_CACHE_DIR
+
+    source = Path(PK.__file__)
+    # numba's index file of search_in, the largest of them (module.function-line.py311.nbi),
+    # beside the source or under NUMBA_CACHE_DIR
+    name = f"{source.stem}.search_in-*.nbi"
+    if cache_dir:
+        return any(Path(cache_dir).rglob(name))
+    return any((source.parent / "__pycache__").glob(name))
+
+
+def start() -> bool:
+    """Start compiling the planning kernels in a second process unless they are cached; True
+    if it started. Nothing else changes: a process that fails or is slow costs nothing but
+    the time :func:`wait` gives it."""
+    if _JOB or kernels_cached():
+        return False
+    try:
+        _JOB.append(
+            subprocess.Popen(
+                [sys.executable, "-m", "robocell.planning.precompile"],
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                env=dict(os.environ),
+            )
+        )
+    except OSError:
+        return False
+    return True
+
+
+def wait(timeout: float = 600.0) -> None:
+    """Wait for the second process, if one runs (at most ``timeout`` [s]; what it has not
+    compiled by then compiles here, as without it)."""
+    if not _JOB:
+        return
+    job = _JOB.pop()
+    try:
+        job.wait(timeout)
+    except subprocess.TimeoutExpired:
+        job.kill()
+
+
+def main() -> int:
+    from robocell.cell import Cell
+    from robocell.planning.rrt import warm_up
+    from robocell.scene import checker as CK
+
+    t0 = time.perf_counter()
+    CK.skip_warm_up()  # the first process compiles the collision kernels
+    cell = Cell.load("sorting", mode="kinematic", time_scale=0)
+    warm_up(cell.scene.checker("arm"))
+    print(f"planning kernels compiled in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
