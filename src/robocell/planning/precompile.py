@@ -4,12 +4,13 @@ first compiles the collision kernels and loads the cell.
 numba compiles in the process that calls a kernel, holding the GIL, one kernel after the
 other: a first run with an empty cache spent 110 of its 200 s on the planning kernels (the
 searches, the shortcut, the detour, the final check) after the 90 s of the collision kernels.
-Those compile just as well in a second process, which leaves them in numba's cache on disk;
-:func:`robocell.planning.rrt.warm_up` waits for it and loads them from there.
+The searches and the shortcut compile just as well in a second process, which leaves them in
+numba's cache on disk; :func:`robocell.planning.rrt.warm_up` compiles the rest meanwhile, then
+waits for it and loads them from there.
 
 ``python -m robocell.planning.precompile`` is that second process: it builds a checker of the
 sorting cell's arm (its kernels' types are those of every checker) without compiling the
-collision kernels, and compiles the planning kernels.
+collision kernels, and compiles the searches and the shortcut.
 """
 
 from __future__ import annotations
@@ -82,7 +83,7 @@ def main() -> int:
     t0 = time.perf_counter()
     CK.skip_warm_up()  # the first process compiles the collision kernels
     cell = Cell.load("sorting", mode="kinematic", time_scale=0)
-    warm_up(cell.scene.checker("arm"))
+    warm_up(cell.scene.checker("arm"), searches_only=True)
     print(f"planning kernels compiled in {time.perf_counter() - t0:.1f} s")
     return 0
 

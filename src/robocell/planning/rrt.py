@@ -319,20 +319,27 @@ def shortcut_compiled(
 _WARM = [False]
 
 
-def warm_up(checker: BatchChecker) -> None:
+def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     """Compile (or load from numba's cache) the compiled search once per process, outside any
-    plan's time budget."""
+    plan's time budget. A first run may be compiling the searches and the shortcut in a
+    second process (planning.precompile): the detour and the final check compile here
+    meanwhile, then the rest loads from the cache once it is done. ``searches_only``: that
+    second process's part alone."""
     if _WARM[0]:
         return
-    from robocell.planning import precompile
-
-    precompile.wait()  # a first run may be compiling them in a second process
     from robocell.planning import _kernels as PK
+    from robocell.planning import precompile
     from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 
     model, scratch = checker.kernel_inputs()  # type: ignore[attr-defined]
     inputs = checker.compiled_inputs  # type: ignore[attr-defined]
     q = np.ascontiguousarray(model[1][model[0]], dtype=float)  # the current state
+    if not searches_only:
+        PK.detour_in(q, q, q, q - 1, q + 1, np.zeros(1), 0, 0.05, inputs, next_epoch(1 << 20))
+        PK._clock()  # through numba's object mode (off Linux), 50 ms on its first call
+        corner = np.array([q, q + 0.1, q + 0.2 * (np.arange(q.shape[0]) % 2)])  # final check
+        PK.validate_path(corner, 0.01, 0.05, True, inputs, next_epoch(1 << 20), 64)
+        precompile.wait()
     # the searches side by side (the kernel's threads start on the first parallel call) and
     # one after the other (rrt_connect_compiled)
     for side_by_side in (True, False):
@@ -342,11 +349,7 @@ def warm_up(checker: BatchChecker) -> None:
             1.0, 0.5, side_by_side,
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1)
-    PK.detour_in(q, q, q, q - 1, q + 1, np.zeros(1), 0, 0.05, inputs, next_epoch(1 << 20))
-    PK._clock()  # through numba's object mode (off Linux), 50 ms on its first call (measured)
-    corner = np.array([q, q + 0.1, q + 0.2 * (np.arange(q.shape[0]) % 2)])  # the final check
-    PK.validate_path(corner, 0.01, 0.05, True, inputs, next_epoch(1 << 20), 64)
-    _WARM[0] = True
+    _WARM[0] = not searches_only
 
 
 def _extend(
