@@ -67,6 +67,9 @@ def main(argv: list[str] | None = None) -> int:
             from pathlib import Path
 
             from robocell.exercise.runner import run_file
+            from robocell.planning import precompile
+
+            precompile.start()  # on a first run, the planning kernels compile on the other core
 
             return run_file(
                 args.file, args.cell, args.layout, args.mode, args.frequency, args.max_time,
