@@ -15,6 +15,7 @@ collision kernels, and compiles the searches and the shortcut.
 
 from __future__ import annotations
 
+import atexit
 import os
 import subprocess
 import sys
@@ -60,7 +61,14 @@ def start() -> bool:
         )
     except OSError:
         return False
+    atexit.register(_stop)  # not left compiling when this process ends first (Ctrl-C)
     return True
+
+
+def _stop() -> None:
+    for job in _JOB:
+        if job.poll() is None:
+            job.kill()
 
 
 def wait(timeout: float = 600.0) -> None:
