@@ -57,7 +57,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "info":
             from robocell.apps.selfcheck import run_info
+            from robocell.planning import precompile
 
+            precompile.start()  # its self-check plans: on a first run, compiled on both cores
             return run_info()
         if args.command == "demo":
             from robocell.apps.demo import run_demo
