@@ -55,11 +55,15 @@ def main(argv: list[str] | None = None) -> int:
     bp.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
     try:
-        if args.command == "info":
-            from robocell.apps.selfcheck import run_info
+        if args.command in ("info", "demo", "run"):
             from robocell.planning import precompile
 
-            precompile.start()  # its self-check plans: on a first run, compiled on both cores
+            # they plan: on a first run the planning kernels compile on the other core
+            # meanwhile (nothing starts once they are in numba's cache)
+            precompile.start()
+        if args.command == "info":
+            from robocell.apps.selfcheck import run_info
+
             return run_info()
         if args.command == "demo":
             from robocell.apps.demo import run_demo
@@ -69,9 +73,6 @@ def main(argv: list[str] | None = None) -> int:
             from pathlib import Path
 
             from robocell.exercise.runner import run_file
-            from robocell.planning import precompile
-
-            precompile.start()  # on a first run, the planning kernels compile on the other core
 
             return run_file(
                 args.file, args.cell, args.layout, args.mode, args.frequency, args.max_time,

@@ -52,9 +52,6 @@ def run_demo(by: str = "color", layout: int = 0, mode: str = "physics") -> int:
     ran = first_run_marker()
     if not ran.exists():
         print(FIRST_RUN, flush=True)
-        from robocell.planning import precompile
-
-        precompile.start()  # the planning kernels compile on the other core meanwhile
     cell = Cell.load("sorting", layout=layout, mode=mode, time_scale=0)
     load_s = time.perf_counter() - t0
     rows = example.sort(cell, by)

@@ -279,24 +279,46 @@ def rrt_connect_many(
     is the first ``lengths[i]`` rows, statuses (S,), stats (S, 5), found (S,): each search's
     work when it found its path). Launching them here cost 10–20 µs instead of the 150–200 µs
     of a Python thread's handoff (measured)."""
-    n = seeds.shape[0]
-    dof = start.shape[0]
-    paths = np.empty((n, 2 * cap, dof))
-    lengths = np.zeros(n, np.int64)
-    statuses = np.full(n, NOT_FOUND, np.int64)
-    stats = np.zeros((n, 5), np.int64)
-    found = np.full(n, np.iinfo(np.int64).max, np.int64)
-    for i in prange(n):
-        me = np.int64(i)  # prange's index is unsigned: rrt_connect would be compiled anew
-        path, status, st = rrt_connect(
-            start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
-            epochs[i], cap, first_slot + me, found, me, box_lo, box_hi, p_box,
+    out = _search_outputs(seeds.shape[0], cap, start.shape[0])
+    for i in prange(seeds.shape[0]):
+        # prange's index is unsigned: _search_one would be compiled anew for it
+        _search_one(
+            np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step, model,
+            scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, out,
         )  # fmt: skip
-        lengths[i] = path.shape[0]
-        paths[i, : path.shape[0]] = path
-        statuses[i] = status
-        stats[i] = st
-    return paths, lengths, statuses, stats, found
+    return out
+
+
+@njit(cache=True)
+def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
+    """What n searches return (:func:`rrt_connect_many`): paths, lengths, statuses, stats and
+    the work each had done when it found its path."""
+    return (
+        np.empty((n, 2 * cap, dof)),
+        np.zeros(n, np.int64),
+        np.full(n, NOT_FOUND, np.int64),
+        np.zeros((n, 5), np.int64),
+        np.full(n, np.iinfo(np.int64).max, np.int64),
+    )
+
+
+@njit(cache=True, nogil=True)
+def _search_one(
+    i, start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs,
+    cap, first_slot, box_lo, box_hi, p_box, out,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Search i of :func:`rrt_connect_many` (seed ``seeds[i]``, scratch slot
+    ``first_slot + i``, stamps from ``epochs[i]``), its results written into ``out``
+    (:func:`_search_outputs`)."""
+    paths, lengths, statuses, stats, found = out
+    path, status, st = rrt_connect(
+        start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
+        epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box,
+    )  # fmt: skip
+    lengths[i] = path.shape[0]
+    paths[i, : path.shape[0]] = path
+    statuses[i] = status
+    stats[i] = st
 
 
 @njit(cache=True, inline="always")
@@ -482,26 +504,18 @@ def search_in(
     for i in range(n):
         epochs[i] = epoch + (i << 40)
     if side_by_side:
-        paths, lengths, statuses, stats, found = rrt_connect_many(
+        out = rrt_connect_many(
             start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch,
             epochs, cap, first_slot, box_lo, box_hi, p_box,
         )  # fmt: skip
     else:
-        paths = np.empty((n, 2 * cap, dof))
-        lengths = np.zeros(n, np.int64)
-        statuses = np.full(n, NOT_FOUND, np.int64)
-        stats = np.zeros((n, 5), np.int64)
-        found = np.full(n, np.iinfo(np.int64).max, np.int64)
+        out = _search_outputs(n, cap, dof)
         for i in range(n):
-            me = np.int64(i)
-            path, status, st = rrt_connect(
-                start, goals, lower, upper, seeds[i], deadline, resolution, step, model,
-                scratch, epochs[i], cap, first_slot + me, found, me, box_lo, box_hi, p_box,
+            _search_one(
+                np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step,
+                model, scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, out,
             )  # fmt: skip
-            lengths[i] = path.shape[0]
-            paths[i, : path.shape[0]] = path
-            statuses[i] = status
-            stats[i] = st
+    paths, lengths, statuses, stats, found = out
     best = 0
     for i in range(n):
         if statuses[i] == FOUND and (statuses[best] != FOUND or found[i] < found[best]):
