@@ -124,6 +124,68 @@ def test_validation_names_the_segments_that_collide(walled):
     assert len(seen) > 1  # paths with different numbers of colliding segments were tried
 
 
+def test_validation_checks_the_corners_as_they_will_be_executed(walled):
+    """With rounded corners, a path whose arcs and the rest of its segments are free is valid
+    rounded, whatever lies in the stretches of the segments the arcs replace: here a corner
+    whose waypoint grazes the wall (sharp, the same path is invalid). A path that collides
+    elsewhere is told where each of its segments collides, whole, as without rounding."""
+    from robocell.planning import Planner, PlannerConfig
+    from robocell.trajectory.path import arc_states
+
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    rounded, sharp = Planner(walled), Planner(walled, PlannerConfig(max_deviation=0.0))
+    dev, res = rounded.config.max_deviation, rounded.config.validation_resolution
+    fine = Edges(None, res)
+    rng = np.random.default_rng(5)
+    # a corner a hair inside the wall: from a free state towards a colliding one, the
+    # boundary (bisection) and 5 mrad beyond it; then ends on either side whose segments
+    # and arc are free
+    path = None
+    while path is None:
+        free, hit = arm.random(rng), arm.random(rng)
+        if checker.check(np.array([free])).any() or not checker.check(np.array([hit])).any():
+            continue
+        lo, hi = 0.0, 1.0
+        for _ in range(30):
+            mid = 0.5 * (lo + hi)
+            inside = checker.check(np.array([free + mid * (hit - free)]))[0]
+            lo, hi = (lo, mid) if inside else (mid, hi)
+        u = (hit - free) / np.linalg.norm(hit - free)
+        corner = free + hi * (hit - free) + 0.005 * u
+        for _ in range(50):
+            a, b = (
+                np.clip(corner + rng.normal(0, 0.6, arm.dof), arm.lower, arm.upper) for _ in "ab"
+            )
+            candidate = np.array([a, corner, b])
+            executed = np.vstack([fine.states(p, q) for p, q in ((a, corner), (corner, b))])
+            near = np.linalg.norm(executed - corner, axis=1) < 0.3
+            arcs = arc_states(candidate, dev, res)
+            if len(arcs) and not checker.check(np.vstack([a, executed[~near], arcs])).any():
+                path = candidate
+                break
+    assert checker.check(path[1:2])[0]  # the corner itself collides
+    ok, used, _, hits = rounded._validate(checker, path)
+    assert ok and used == dev and hits == {}
+    ok, _, _, hits = sharp._validate(checker, path)
+    assert not ok and set(hits) <= {0, 1}
+    # paths that collide away from their corners: the same segments and places as sharp
+    compared = 0
+    for _ in range(20):
+        path = np.vstack([START, [arm.random(rng) for _ in range(3)], GOAL])
+        ok, used, _, hits = rounded._validate(checker, path)
+        ok0, _, _, hits0 = sharp._validate(checker, path)
+        if ok0:
+            assert ok
+        elif not ok:
+            compared += 1
+            assert set(hits) == set(hits0)
+            for k, hit in hits.items():
+                for x, y in zip(hit, hits0[k], strict=True):
+                    assert np.array_equal(x, y)
+    assert compared > 5
+
+
 def test_searches_side_by_side_return_the_least_work_one(walled):
     """Two compiled searches run side by side (the kernel's threads) and the one whose path
     took the least work wins, whatever the scheduling: the same path as the better of the two

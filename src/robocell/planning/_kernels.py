@@ -378,17 +378,17 @@ def _skip_waypoints(path, resolution, model, sc, epoch, buf, stats, deadline):  
 
 
 @njit(cache=True)
-def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries, budget):  # type: ignore[no-untyped-def]
+def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries, budget, slot):  # type: ignore[no-untyped-def]
     """:func:`robocell.planning.rrt.shortcut` compiled: greedy waypoint skipping, random
     shortcuts between points on the path (at most ``max_tries``, until 12 fail in a row or
     ``budget`` states are checked), greedy again if they changed the path; repeated waypoints
-    dropped. Returns the
-    path and stats (2: epochs used, 3: states checked)."""
+    dropped. Checks on scratch slot ``slot``. Returns the path and stats (2: epochs used,
+    3: states checked)."""
     np.random.seed(seed)  # noqa: NPY002 (numba's generator)
     dof = path.shape[1]
     stats = np.zeros(4, np.int64)
     buf = np.empty((4096, dof))
-    sc = SK.scanner(model, scratch, 0, buf.shape[0])
+    sc = SK.scanner(model, scratch, slot, buf.shape[0])
     path = _skip_waypoints(path, resolution, model, sc, epoch, buf, stats, deadline)
     stop_at = stats[3] + budget
     fails = 0
@@ -474,19 +474,34 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
 # The entry points called from Python, on a checker's SK.KernelInputs (one object to pass
 # instead of the model's and the scratch's 69 arrays: see SK.KernelInputs).
 @njit(cache=True, nogil=True)
-def search_in(
+def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
-    first_slot, box_margin, p_box, side_by_side,
+    first_slot, box_margin, p_box, side_by_side, shortcut_seed, shortcut_deadline,
+    shortcut_tries, shortcut_share, shortcut_min, check_resolution, max_deviation, chunk,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
-    """The searches of :func:`robocell.planning.rrt.rrt_connect_compiled` in one call: one
-    per seed of ``seeds``, side by side on the kernel's threads (:func:`rrt_connect_many`) or
-    one after the other (each later one stops once it has done more work than an earlier one
-    that found a path, so that the same one wins), search i on scratch slot
-    ``first_slot + i`` from stamp ``epoch + i·2**40``. Samples come from the box around the
-    start and the goals grown by ``box_margin`` with probability ``p_box``. Returns the
-    winner's path (a copy), status and stats (:func:`rrt_connect`); search 0's if none
-    found a path. Before, the box, the stamps and the choice of the winner took 50–80 µs
-    of numpy calls in Python on a plan's cold caches (measured)."""
+    """A plan's compiled steps in one call: the searches of
+    :func:`robocell.planning.rrt.rrt_connect_compiled`, then (``shortcut_tries`` > 0) the
+    winner's path shortened by :func:`shortcut` (seed ``shortcut_seed``, until
+    ``shortcut_deadline``, checking at most ``shortcut_share`` of the states the search
+    checked and at least ``shortcut_min``), then (``check_resolution`` > 0) its final check
+    (:func:`validate_path`).
+
+    The searches: one per seed of ``seeds``, side by side on the kernel's threads
+    (:func:`rrt_connect_many`) or one after the other (each later one stops once it has done
+    more work than an earlier one that found a path, so that the same one wins), search i on
+    scratch slot ``first_slot + i`` from stamp ``epoch + i·2**40``. Samples come from the box
+    around the start and the goals grown by ``box_margin`` with probability ``p_box``. The
+    shortcut and the final check run on the searches' slots too (from stamps
+    ``epoch + n·2**40`` and ``epoch + (n + 1)·2**40``, n searches), so the call needs no
+    GIL; the final check on two of them side by side when ``side_by_side``.
+
+    Returns the path (the winner's, or search 0's if none found one), the search's status
+    and stats (:func:`rrt_connect`), the states the shortcut checked, and the final check's
+    outputs (:func:`validate_path`; empty unless it ran). One call instead of three (each
+    compiled entry point carries its own copy of the collision kernel's code, and the Python
+    between them runs on the caches a scene's loading leaves): Panda table_pick and
+    table_under_pick medians 1–7 % lower, the same paths (50 problems each, alternating in
+    one process, session 16)."""
     model, scratch = inputs.model, inputs.scratch
     dof = start.shape[0]
     box_lo = np.empty(dof)
@@ -520,15 +535,34 @@ def search_in(
     for i in range(n):
         if statuses[i] == FOUND and (statuses[best] != FOUND or found[i] < found[best]):
             best = i
-    return paths[best, : lengths[best]].copy(), statuses[best], stats[best].copy()
+    path = paths[best, : lengths[best]].copy()
+    shortcut_states = 0
+    if statuses[best] == FOUND and shortcut_tries > 0:
+        budget = max(shortcut_min, int(shortcut_share * stats[best, 3]))
+        path, st = shortcut(
+            path, shortcut_seed, shortcut_deadline, resolution, model, scratch, epoch + (n << 40),
+            shortcut_tries, budget, first_slot,
+        )  # fmt: skip
+        shortcut_states = st[3]
+    if statuses[best] == FOUND and check_resolution > 0:
+        checked = _final_check(
+            path, check_resolution, max_deviation, True, model, scratch,
+            epoch + ((n + 1) << 40), chunk, first_slot, min(n, 2) if side_by_side else 1,
+        )  # fmt: skip
+    else:
+        checked = _final_check(
+            path[:0], 1.0, 0.0, False, model, scratch, epoch, chunk, first_slot, np.int64(1)
+        )
+    return (path, statuses[best], stats[best].copy(), shortcut_states) + checked
 
 
 @njit(cache=True)
 def shortcut_in(path, seed, deadline, resolution, inputs, epoch, max_tries, budget):  # type: ignore[no-untyped-def]
     """:func:`shortcut` on a KernelInputs."""
     return shortcut(
-        path, seed, deadline, resolution, inputs.model, inputs.scratch, epoch, max_tries, budget
-    )
+        path, seed, deadline, resolution, inputs.model, inputs.scratch, epoch, max_tries, budget,
+        np.int64(0),
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -569,49 +603,164 @@ def segment_states(path, resolution):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _classify_all(qs, model, scratch, epoch, chunk):  # type: ignore[no-untyped-def]
-    """SK.classify with the unsure pairs' flags, on the threads for more than one chunk."""
-    if qs.shape[0] <= chunk:
-        return SK.classify_serial(
-            qs, model, scratch, epoch, np.bool_(True), np.bool_(False), np.int64(0)
-        )
-    return SK.classify(qs, model, scratch, epoch, np.bool_(True), chunk)
+def _classify_runs(qs, runs, cls, flags, model, scratch, epoch, chunk, slot0, slots):  # type: ignore[no-untyped-def]
+    """Classify the states of ``qs`` in the runs [s0, s1) of ``runs`` (R, 2), with the unsure
+    pairs' flags, into ``cls`` and ``flags`` at their rows (stamps ``epoch + s``): in the
+    calling thread on scratch slot ``slot0`` for at most one chunk of states or if ``slots``
+    is 1, else in equal shares side by side on the kernel's threads, on slots ``slot0`` …
+    ``slot0 + slots − 1`` (on the threads' own slots if ``slots`` is 0). In place: gathering
+    the states into a batch and scattering its classes and flags back cost what skipping
+    the corners' stretches saved (measured)."""
+    total = 0
+    for r in range(runs.shape[0]):
+        total += runs[r, 1] - runs[r, 0]
+    if total <= chunk or slots == 1:
+        _classify_share(qs, runs, 0, total, cls, flags, model, scratch, epoch, slot0)
+    elif total > 0:
+        # a share per slot, or per chunk on the threads' own slots
+        parts = slots if slots > 0 else (total + chunk - 1) // chunk
+        _classify_shares(qs, runs, total, parts, cls, flags, model, scratch, epoch, slot0, slots)
+
+
+@njit(cache=True, nogil=True)
+def _classify_share(qs, runs, a, b, cls, flags, model, scratch, epoch, slot):  # type: ignore[no-untyped-def]
+    """The a-th to the (b − 1)-th of the states in ``runs`` (counted along the runs) for
+    :func:`_classify_runs`, on scratch slot ``slot``."""
+    if a >= b:
+        return
+    W, stamp, Wi, stamp_i, seen, pairs, T = SK._slot(scratch, slot)
+    buffers = SK._range_buffers(model)
+    row = np.zeros(0, np.bool_)
+    before = 0
+    for r in range(runs.shape[0]):
+        s0, n = runs[r, 0], runs[r, 1] - runs[r, 0]
+        lo, hi = max(a - before, 0), min(b - before, n)
+        if lo < hi:
+            SK._classify_range(
+                s0 + lo, s0 + hi, qs, model, W, stamp, Wi, stamp_i, seen, pairs, T, epoch, flags,
+                np.bool_(True), row, cls, buffers, np.bool_(False),
+            )  # fmt: skip
+        before += n
+
+
+@njit(cache=True, parallel=True, nogil=True)
+def _classify_shares(qs, runs, total, parts, cls, flags, model, scratch, epoch, slot0, slots):  # type: ignore[no-untyped-def]
+    """:func:`_classify_runs` on the kernel's threads, in ``parts`` equal shares."""
+    for p in prange(parts):
+        i = np.int64(p)  # prange's index is unsigned
+        slot = slot0 + i if slots > 0 else np.int64(numba.get_thread_id())
+        _classify_share(
+            qs, runs, total * i // parts, total * (i + 1) // parts, cls, flags, model, scratch,
+            epoch, slot,
+        )  # fmt: skip
 
 
 @njit(cache=True)
 def validate_path(path, resolution, max_deviation, check_segments, inputs, epoch, chunk):  # type: ignore[no-untyped-def]
-    """The planner's final check of ``path`` (K, dof) as it will be executed, in one call:
-    its straight segments' states at ``resolution`` (if ``check_segments``) and, unless one
-    of them is certainly colliding, the states of its corners rounded within
-    ``max_deviation`` (if > 0), classified by the kernel with the unsure pairs flagged.
-    Returns (segment states, their segment, classes, flags, arc states, classes, flags).
-    Before, the same steps in Python between two kernel calls cost 250–300 µs of a 600 µs
-    check in a plan (cold caches after the search; UR5 table_pick, measured)."""
-    model, scratch = inputs.model, inputs.scratch
+    """The planner's final check of ``path`` (K, dof) as it will be executed, in one call
+    (:func:`_final_check` on the kernel's threads). Before, the same steps in Python between
+    two kernel calls cost 250–300 µs of a 600 µs check in a plan (cold caches after the
+    search; UR5 table_pick, measured)."""
+    return _final_check(
+        path, resolution, max_deviation, check_segments, inputs.model, inputs.scratch, epoch,
+        chunk, np.int64(0), np.int64(0),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _final_check(
+    path, resolution, max_deviation, check_segments, model, scratch, epoch, chunk, slot0, slots
+):  # type: ignore[no-untyped-def]
+    """The final check of ``path`` (K, dof) as it will be executed: its straight segments'
+    states at ``resolution`` (if ``check_segments``) and the states of its corners rounded
+    within ``max_deviation`` (if > 0), classified by the kernel with the unsure pairs flagged
+    (:func:`_classify_runs` on ``slot0`` and ``slots``). Returns (segment states, their
+    segment, classes, flags, arc states, classes, flags).
+
+    The stretches of the segments that the rounded corners replace are classified only when
+    needed: when a state elsewhere on the segments is not FREE (where each segment collides
+    is then known whole, for a repair) or an arc's is not (the corners may have to stay
+    sharp); otherwise they keep the class UNCHECKED, as the motion does not pass there.
+    They were 16–20 % of a Panda's segment states and 9–11 % of a UR5's (MotionBenchMaker
+    sets, session 15). The arcs are not classified when a segment state is a HIT."""
     dof = path.shape[1]
+    # the waypoints without repeats (a repeated point has no direction), their corners'
+    # arcs, and how far along each segment from each rounded waypoint its arc reaches
+    keep = np.ones(path.shape[0], np.bool_)
+    for k in range(1, path.shape[0]):
+        d = 0.0
+        for j in range(dof):
+            d += (path[k, j] - path[k - 1, j]) ** 2
+        keep[k] = math.sqrt(d) > 1e-9
+    wp = path[keep]
+    arcs = np.empty((0, dof))
+    reach = np.zeros(path.shape[0])
+    if max_deviation > 0 and wp.shape[0] > 2:
+        u, _, waypoint, ell, centre, e1, radius, angle = TK.corner_arcs(wp, max_deviation, -1.0)
+        arcs = TK.arc_points(u, waypoint, centre, e1, radius, angle, resolution)
+        if wp.shape[0] == path.shape[0]:  # else every segment state is checked
+            for c in range(waypoint.shape[0]):
+                reach[waypoint[c]] = ell[c] * (1.0 - 1e-9)
     if check_segments:
         states, segment = segment_states(path, resolution)
     else:
         states, segment = np.empty((0, dof)), np.zeros(0, np.int64)
-    cls, flags = _classify_all(states, model, scratch, epoch, chunk)
-    epoch += states.shape[0]
-    arcs = np.empty((0, dof))
+    # the segment states within a rounded corner's stretch (the start never is)
+    corner = np.zeros(states.shape[0], np.bool_)
+    row = 1
+    for k in range(path.shape[0] - 1 if states.shape[0] > 0 else 0):
+        n = 0
+        while row + n < segment.shape[0] and segment[row + n] == k:
+            n += 1
+        if reach[k] > 0 or reach[k + 1] > 0:
+            length = 0.0
+            for j in range(dof):
+                length += (path[k + 1, j] - path[k, j]) ** 2
+            length = math.sqrt(length)
+            for i in range(n):
+                along = (i + 1) / n * length
+                corner[row + i] = along < reach[k] or length - along < reach[k + 1]
+        row += n
+    # the runs of states off the corners' stretches, and on them
+    runs = np.empty((2 * path.shape[0], 2), np.int64)
+    n_runs = 0
+    for s in range(states.shape[0]):
+        if s > 0 and corner[s] == corner[s - 1]:
+            runs[n_runs - 1, 1] = s + 1
+        else:
+            runs[n_runs, 0], runs[n_runs, 1] = s, s + 1
+            n_runs += 1
+    first_off = 0 if states.shape[0] == 0 or not corner[0] else 1
+    off = runs[first_off:n_runs:2].copy()
+    on = runs[1 - first_off : n_runs : 2].copy()
+    P = model[25].shape[0] + model[26].shape[0]
+    cls = np.full(states.shape[0], SK.UNCHECKED, np.int8)
+    flags = np.zeros((states.shape[0], P), np.bool_)
+    _classify_runs(states, off, cls, flags, model, scratch, epoch, chunk, slot0, slots)
+    free = True
+    for i in range(cls.shape[0]):
+        if cls[i] != SK.FREE and cls[i] != SK.UNCHECKED:
+            free = False
+            break
+    corners_done = not free
+    if corners_done:
+        _classify_runs(states, on, cls, flags, model, scratch, epoch, chunk, slot0, slots)
     hit = False
     for i in range(cls.shape[0]):
         if cls[i] == SK.HIT:
             hit = True
             break
-    if max_deviation > 0 and path.shape[0] > 2 and not hit:
-        # the waypoints without repeats (a repeated point has no direction)
-        keep = np.ones(path.shape[0], np.bool_)
-        for k in range(1, path.shape[0]):
-            d = 0.0
-            for j in range(dof):
-                d += (path[k, j] - path[k - 1, j]) ** 2
-            keep[k] = math.sqrt(d) > 1e-9
-        wp = path[keep]
-        if wp.shape[0] > 2:
-            u, _, waypoint, _, centre, e1, radius, angle = TK.corner_arcs(wp, max_deviation, -1.0)
-            arcs = TK.arc_points(u, waypoint, centre, e1, radius, angle, resolution)
-    arc_cls, arc_flags = _classify_all(arcs, model, scratch, epoch, chunk)
+    if hit:
+        arcs = arcs[:0]
+    arc_cls = np.full(arcs.shape[0], SK.UNCHECKED, np.int8)
+    arc_flags = np.zeros((arcs.shape[0], P), np.bool_)
+    whole = np.zeros((1, 2), np.int64)
+    whole[0, 1] = arcs.shape[0]
+    arc_epoch = epoch + states.shape[0]
+    _classify_runs(arcs, whole, arc_cls, arc_flags, model, scratch, arc_epoch, chunk, slot0, slots)
+    if not corners_done:
+        for i in range(arc_cls.shape[0]):
+            if arc_cls[i] != SK.FREE:
+                _classify_runs(states, on, cls, flags, model, scratch, epoch, chunk, slot0, slots)
+                break
     return states, segment, cls, flags, arcs, arc_cls, arc_flags

@@ -25,12 +25,14 @@ from robocell.planning.request import (
     PositionGoal,
 )
 from robocell.planning.rrt import (
+    CheckOutputs,
     Edges,
+    Finish,
     Rng,
     Seeds,
     dedupe,
     rrt_connect,
-    rrt_connect_compiled,
+    search_compiled,
     seed_of,
     shortcut,
     shortcut_compiled,
@@ -137,7 +139,7 @@ class Planner:
         while found < request.attempts and time.perf_counter() < deadline:
             tries += 1
             edges = Edges(checker, resolution)
-            path = self._solve(planner_name, edges, start, goals, group, rng, deadline)
+            path, checked = self._solve(planner_name, edges, start, goals, group, rng, deadline)
             stats["checked_states"] = stats.get("checked_states", 0) + edges.stats.states
             if path is None:
                 reason = (
@@ -145,12 +147,17 @@ class Planner:
                     f"({edges.stats.iterations} iterations, {edges.stats.nodes} nodes)"
                 )
                 continue
-            if cfg.shortcut and (native or not cfg.ompl_simplify):
-                budget = max(cfg.shortcut_min_states, int(cfg.shortcut_share * edges.stats.states))
-                path = self._shortcut(edges, path, rng, deadline, budget)
+            if checked is not None:  # shortcut and checked in the search's call
+                ok, dev, bad, hits = self._judge(checker, checked)
             else:
-                path = dedupe(path)  # a tree's connect step can repeat a node
-            ok, dev, bad, hits = self._validate(checker, path)
+                if cfg.shortcut and (native or not cfg.ompl_simplify):
+                    budget = max(
+                        cfg.shortcut_min_states, int(cfg.shortcut_share * edges.stats.states)
+                    )
+                    path = self._shortcut(edges, path, rng, deadline, budget)
+                else:
+                    path = dedupe(path)  # a tree's connect step can repeat a node
+                ok, dev, bad, hits = self._validate(checker, path)
             if not ok and native:
                 # repair the segments that collide between checked states, each by a search
                 # between its ends at the validation resolution, before replanning it all
@@ -342,21 +349,33 @@ class Planner:
         group: JointGroup,
         rng: Rng,
         deadline: float,
-    ) -> NDArray[np.float64] | None:
+        finish: bool = True,
+    ) -> tuple[NDArray[np.float64] | None, CheckOutputs | None]:
+        """A path from ``start`` to one of ``goals`` (None if none was found in time), and,
+        when the compiled search found it and ``finish`` is set, the path shortened and its
+        final check's outputs, from the same kernel call (else None: the caller shortcuts
+        and checks it)."""
+        cfg = self.config
         if planner_name.lower() in NATIVE_PLANNERS:
-            lo, hi, step = group.lower, group.upper, self.config.step
-            if self.config.compiled:
+            lo, hi, step = group.lower, group.upper, cfg.step
+            if cfg.compiled:
                 # most of the budget to the compiled search; what is left to the Python one,
                 # which settles the states the kernel leaves unsure (near contact)
                 now = time.perf_counter()
-                soon = now + self.config.compiled_share * (deadline - now)
-                path = rrt_connect_compiled(
-                    edges, start, goals, lo, hi, rng, soon, step, searches=self.config.searches,
-                    box_margin=self.config.box_margin, box_share=self.config.box_share,
+                soon = now + cfg.compiled_share * (deadline - now)
+                todo = None
+                if finish and cfg.shortcut:
+                    todo = Finish(
+                        deadline, cfg.shortcut_tries, cfg.shortcut_share,
+                        cfg.shortcut_min_states, cfg.validation_resolution, cfg.max_deviation,
+                    )  # fmt: skip
+                path, checked = search_compiled(
+                    edges, start, goals, lo, hi, rng, soon, step, searches=cfg.searches,
+                    box_margin=cfg.box_margin, box_share=cfg.box_share, finish=todo,
                 )  # fmt: skip
                 if path is not None or time.perf_counter() >= deadline:
-                    return path
-            return rrt_connect(edges, start, goals, lo, hi, rng, deadline, step)
+                    return path, checked
+            return rrt_connect(edges, start, goals, lo, hi, rng, deadline, step), None
         from robocell.planning import ompl_backend
 
         if not ompl_backend.is_ompl_name(planner_name):
@@ -364,7 +383,7 @@ class Planner:
                 f"unknown planner {planner_name!r}; known: rrtconnect (native, default) or an "
                 f"OMPL planner: {choices(ompl_backend.PLANNERS)}"
             )
-        return ompl_backend.plan(
+        path = ompl_backend.plan(
             planner_name,
             edges,
             start,
@@ -373,9 +392,10 @@ class Planner:
             group.upper,
             deadline,
             seed_of(rng),
-            self.config.ompl_state_check,
-            self.config.ompl_simplify,
+            cfg.ompl_state_check,
+            cfg.ompl_simplify,
         )
+        return path, None
 
     def _shortcut(
         self,
@@ -427,7 +447,7 @@ class Planner:
                             out.append(p)
                     break
             else:
-                sub = self._solve("", fine, a, b[None, :], group, rng, deadline)
+                sub, _ = self._solve("", fine, a, b[None, :], group, rng, deadline, False)
                 if sub is None:
                     return None
                 out.extend(self._shortcut(fine, sub, rng, deadline, fine.stats.states)[1:])
@@ -475,28 +495,40 @@ class Planner:
         deviation to execute it with, the first colliding state or an empty array, where each
         straight segment that collides does (:class:`Hit`)).
 
-        The straight segments are checked first (``segments_checked``: they already were, at
-        this resolution, as a repair does). A path whose segments are free is valid: if a
-        rounded corner collides (the rest of a rounded path lies on the segments), the
-        corners are kept sharp (the motion stops at each) instead. A path checked rounded
-        first cost a second check whenever a corner cut into an obstacle, as shortened paths
-        that skirt one often do."""
+        A path is valid when it is free as it will be executed: with its corners rounded if
+        their arcs and the rest of the segments are free (the stretches of the segments the
+        arcs replace are then not checked: the motion does not pass there), else with sharp
+        corners (the motion stops at each) if the whole segments are free.
+        ``segments_checked``: the segments already were, at this resolution, as a repair
+        does; only the arcs are checked. Where a segment collides is known whole, for a
+        repair (``_kernels._final_check``)."""
         from robocell.planning import _kernels as PK
         from robocell.scene.checker import CHUNK, next_epoch
 
-        dev = self.config.max_deviation
-        states, segment, cls, flags, arcs, arc_cls, arc_flags = PK.validate_path(
+        checked = PK.validate_path(
             np.ascontiguousarray(path, dtype=float),
             self.config.validation_resolution,
-            dev,
+            self.config.max_deviation,
             not segments_checked,
             checker.compiled_inputs,
             next_epoch(1 << 40),
             CHUNK,
         )
-        # cls.any(): a state that is not FREE (most final checks find none, and settling
-        # and sorting nothing cost 20–30 µs of Python in a 1 ms plan, measured)
-        if not segments_checked and cls.any():
+        return self._judge(checker, checked, segments_checked)
+
+    def _judge(
+        self, checker: CollisionChecker, checked: CheckOutputs, segments_checked: bool = False
+    ) -> tuple[bool, float, NDArray[np.float64], dict[int, Hit]]:
+        """:meth:`_validate`'s answer from the final check's outputs (``validate_path``'s):
+        its unsure states settled by coal."""
+        from robocell.scene import _kernels as SK
+
+        states, segment, cls, flags, arcs, arc_cls, arc_flags = checked
+        dev = self.config.max_deviation
+        # a state HIT or UNSURE (most final checks find none, and settling and sorting
+        # nothing cost 20–30 µs of Python in a 1 ms plan, measured); UNCHECKED: a corner's
+        # stretch of a segment, which the motion does not pass (see validate_path)
+        if not segments_checked and ((cls == SK.HIT).any() or (cls == SK.UNSURE).any()):
             hits = _hits(states, segment, np.flatnonzero(checker.settle(states, cls, flags)))
             if hits:
                 # naming the colliding pair costs as much as the check: the caller does it

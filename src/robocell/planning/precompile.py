@@ -36,9 +36,9 @@ def kernels_cached() -> bool:
     cache_dir = str(getattr(config, "CACHE_DIR", "") or "")  # NUMBA_CACHE_DIR
 
     source = Path(PK.__file__)
-    # numba's index file of search_in, the largest of them (module.function-line.py311.nbi),
+    # numba's index file of plan_in, the largest of them (module.function-line.py311.nbi),
     # beside the source or under NUMBA_CACHE_DIR
-    name = f"{source.stem}.search_in-*.nbi"
+    name = f"{source.stem}.plan_in-*.nbi"
     if cache_dir:
         return any(Path(cache_dir).rglob(name))
     return any((source.parent / "__pycache__").glob(name))

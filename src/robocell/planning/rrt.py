@@ -242,14 +242,59 @@ def rrt_connect_compiled(
     ``side_by_side``: run the searches on the kernel's threads (True) or one after the other
     (False; the same path); by default side by side where numba's threading layer allows it
     (:func:`_threadsafe_layer`)."""
+    path, _ = search_compiled(
+        edges, start, goals, lower, upper, rng, deadline, step, cap, searches, box_margin,
+        box_share, side_by_side,
+    )  # fmt: skip
+    return path
+
+
+@dataclass
+class Finish:
+    """What :func:`search_compiled` does with the path it found, in the same call: shortcut
+    it (:func:`shortcut_compiled`'s settings, ``tries`` > 0) and give its final check's
+    outputs (``_kernels.validate_path``'s, ``check_resolution`` > 0)."""
+
+    deadline: float  # of the shortcut
+    tries: int = 0
+    share: float = 0.5
+    min_states: int = 100
+    check_resolution: float = 0.0
+    max_deviation: float = 0.0
+
+
+CheckOutputs = tuple[NDArray, ...]  # _kernels.validate_path's
+
+
+def search_compiled(
+    edges: Edges,
+    start: NDArray[np.float64],
+    goals: NDArray[np.float64],
+    lower: NDArray[np.float64],
+    upper: NDArray[np.float64],
+    rng: Rng,
+    deadline: float,
+    step: float = 0.8,
+    cap: int = 1 << 14,
+    searches: int = 2,
+    box_margin: float = 2.0,
+    box_share: float = 0.8,
+    side_by_side: bool | None = None,
+    finish: Finish | None = None,
+) -> tuple[NDArray[np.float64] | None, CheckOutputs | None]:
+    """:func:`rrt_connect_compiled`, then what ``finish`` asks for (the shortcut and the final
+    check), in one kernel call (``_kernels.plan_in``): the path (None if none was found) and
+    the final check's outputs (None unless it ran)."""
     from robocell.planning import _kernels as PK
-    from robocell.scene.checker import SEARCH_SLOTS, next_epoch
+    from robocell.scene.checker import CHUNK, SEARCH_SLOTS, next_epoch
 
     _, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
     inputs = edges.checker.compiled_inputs  # type: ignore[attr-defined]
     searches = max(1, min(searches, SEARCH_SLOTS))
     first_slot = scratch[0].shape[0] - SEARCH_SLOTS
     seeds = np.array([seed_of(rng) for _ in range(searches)], np.int64)
+    finish = finish or Finish(deadline)
+    shortcut_seed = seed_of(rng) if finish.tries > 0 else 0
     start = np.ascontiguousarray(start, dtype=float)
     goals = np.ascontiguousarray(goals, dtype=float)
     lower = np.ascontiguousarray(lower, dtype=float)
@@ -257,14 +302,18 @@ def rrt_connect_compiled(
     with _SEARCH_LOCK:
         if side_by_side is None:
             side_by_side = searches > 1 and _threadsafe_layer()
-        path, status, st = PK.search_in(
+        path, status, st, shortcut_states, *checked = PK.plan_in(
             start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
-            next_epoch(searches << 40), cap, first_slot, box_margin, box_share, side_by_side,
+            next_epoch((searches + 2) << 40), cap, first_slot, box_margin, box_share,
+            side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
+            finish.min_states, finish.check_resolution, finish.max_deviation, CHUNK,
         )  # fmt: skip
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
-    edges.stats.states += int(st[3])
-    return path if status == PK.FOUND else None
+    edges.stats.states += int(st[3]) + int(shortcut_states)
+    if status != PK.FOUND:
+        return None, None
+    return path, (tuple(checked) if finish.check_resolution > 0 else None)
 
 
 def _threadsafe_layer() -> bool:
@@ -329,7 +378,7 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
         return
     from robocell.planning import _kernels as PK
     from robocell.planning import precompile
-    from robocell.scene.checker import SEARCH_SLOTS, next_epoch
+    from robocell.scene.checker import CHUNK, SEARCH_SLOTS, next_epoch
 
     model, scratch = checker.kernel_inputs()  # type: ignore[attr-defined]
     inputs = checker.compiled_inputs  # type: ignore[attr-defined]
@@ -343,10 +392,11 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     # the searches side by side (the kernel's threads start on the first parallel call) and
     # one after the other (rrt_connect_compiled)
     for side_by_side in (True, False):
-        PK.search_in(
+        PK.plan_in(
             q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
-            inputs, next_epoch(SEARCH_SLOTS << 40), 16, scratch[0].shape[0] - SEARCH_SLOTS,
-            1.0, 0.5, side_by_side,
+            inputs, next_epoch((SEARCH_SLOTS + 2) << 40), 16,
+            scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, side_by_side, 0, 0.0, 1, 0.5, 1,
+            0.01, 0.05, CHUNK,
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1)
     _WARM[0] = not searches_only
