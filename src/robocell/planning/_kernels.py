@@ -24,6 +24,7 @@ from robocell.scene import _kernels as SK
 from robocell.trajectory import _kernels as TK
 
 FOUND, NOT_FOUND, FULL, STOPPED = 0, 1, 2, 3
+ENDS = 4  # plan_in: the start or a goal is not FREE to the kernel (the caller checks them)
 STATE_WORK = 100  # a state's kinematics and pair loop, in sphere centres placed (fitted)
 
 
@@ -478,8 +479,10 @@ def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
     first_slot, box_margin, p_box, side_by_side, shortcut_seed, shortcut_deadline,
     shortcut_tries, shortcut_share, shortcut_min, check_resolution, max_deviation, chunk,
+    check_ends,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
-    """A plan's compiled steps in one call: the searches of
+    """A plan's compiled steps in one call: (``check_ends``) the start and the goals
+    classified, and status ENDS returned at once if one is not FREE; the searches of
     :func:`robocell.planning.rrt.rrt_connect_compiled`, then (``shortcut_tries`` > 0) the
     winner's path shortened by :func:`shortcut` (seed ``shortcut_seed``, until
     ``shortcut_deadline``, checking at most ``shortcut_share`` of the states the search
@@ -504,6 +507,15 @@ def plan_in(
     one process, session 16)."""
     model, scratch = inputs.model, inputs.scratch
     dof = start.shape[0]
+    n = seeds.shape[0]
+    if check_ends and not _ends_free(
+        start, goals, model, scratch, epoch + ((n + 2) << 40), first_slot
+    ):
+        path = np.empty((0, dof))
+        nothing = _final_check(
+            path, 1.0, 0.0, False, model, scratch, epoch, chunk, first_slot, np.int64(1)
+        )
+        return (path, np.int64(ENDS), np.zeros(5, np.int64), np.int64(0)) + nothing
     box_lo = np.empty(dof)
     box_hi = np.empty(dof)
     for j in range(dof):
@@ -514,7 +526,6 @@ def plan_in(
             hi = max(hi, goals[g, j])
         box_lo[j] = max(lower[j], lo - box_margin)
         box_hi[j] = min(upper[j], hi + box_margin)
-    n = seeds.shape[0]
     epochs = np.empty(n, np.int64)
     for i in range(n):
         epochs[i] = epoch + (i << 40)
@@ -554,6 +565,25 @@ def plan_in(
             path[:0], 1.0, 0.0, False, model, scratch, epoch, chunk, first_slot, np.int64(1)
         )
     return (path, statuses[best], stats[best].copy(), shortcut_states) + checked
+
+
+@njit(cache=True)
+def _ends_free(start, goals, model, scratch, epoch, slot):  # type: ignore[no-untyped-def]
+    """Whether the start and every goal are FREE to the kernel (on scratch slot ``slot``,
+    stamps from ``epoch``), stopping at the first that is not."""
+    dof = start.shape[0]
+    ends = np.empty((1 + goals.shape[0], dof))
+    ends[0] = start
+    ends[1:] = goals
+    cls = np.full(ends.shape[0], SK.UNCHECKED, np.int8)
+    flags = np.zeros((ends.shape[0], model[25].shape[0] + model[26].shape[0]), np.bool_)
+    for i in range(ends.shape[0]):
+        run = np.zeros((1, 2), np.int64)
+        run[0, 0], run[0, 1] = i, i + 1
+        _classify_share(ends, run, 0, 1, cls, flags, model, scratch, epoch, slot)
+        if cls[i] != SK.FREE:
+            return False
+    return True
 
 
 @njit(cache=True)
@@ -758,9 +788,17 @@ def _final_check(
     whole[0, 1] = arcs.shape[0]
     arc_epoch = epoch + states.shape[0]
     _classify_runs(arcs, whole, arc_cls, arc_flags, model, scratch, arc_epoch, chunk, slot0, slots)
-    if not corners_done:
-        for i in range(arc_cls.shape[0]):
-            if arc_cls[i] != SK.FREE:
-                _classify_runs(states, on, cls, flags, model, scratch, epoch, chunk, slot0, slots)
+    arcs_free = True
+    for i in range(arc_cls.shape[0]):
+        if arc_cls[i] != SK.FREE:
+            arcs_free = False
+            break
+    if not arcs_free and not corners_done:
+        _classify_runs(states, on, cls, flags, model, scratch, epoch, chunk, slot0, slots)
+        for i in range(cls.shape[0]):
+            if cls[i] != SK.FREE and cls[i] != SK.UNCHECKED:
+                free = False
                 break
-    return states, segment, cls, flags, arcs, arc_cls, arc_flags
+    # what the caller need not look at: 0 when every state classified is FREE
+    summary = (0 if free else 1) + (0 if arcs_free else 2)
+    return states, segment, cls, flags, arcs, arc_cls, arc_flags, summary

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from robocell.errors import PlanningError, choices
 from robocell.geometry.pose import Pose
 from robocell.kinematics.ik import NumericIK, NumericIKConfig, solve_ik
+from robocell.planning import _kernels as PK
 from robocell.planning.request import (
     Goal,
     JointGoal,
@@ -27,6 +28,7 @@ from robocell.planning.request import (
 from robocell.planning.rrt import (
     CheckOutputs,
     Edges,
+    EndsNotFree,
     Finish,
     Rng,
     Seeds,
@@ -39,7 +41,7 @@ from robocell.planning.rrt import (
     warm_up,
 )
 from robocell.robot.model import JointGroup
-from robocell.scene.checker import CollisionChecker
+from robocell.scene.checker import CHUNK, CollisionChecker, next_epoch
 from robocell.scene.planning_scene import PlanningScene
 from robocell.trajectory.path import BlendedPath
 from robocell.trajectory.timing import time_optimal
@@ -118,8 +120,12 @@ class Planner:
         checker = self.scene.checker(group)
         if cfg.compiled and request.planner_id.strip().lower() in NATIVE_PLANNERS:
             warm_up(checker)
-        start, prefix = self._start(group, request, checker)
-        goals = self.goal_configurations(group, request.goal, start, checker)
+        # the compiled search classifies the start and a joint goal itself, first (two kernel
+        # calls and their Python fewer: 30–40 µs of a 1 ms plan on cold caches, measured);
+        # where it finds one not free, they are checked here as for the other planners
+        ends_in_kernel = cfg.compiled and request.planner_id.strip().lower() in NATIVE_PLANNERS
+        start, prefix = self._start(group, request, checker, not ends_in_kernel)
+        goals = self.goal_configurations(group, request.goal, start, checker, not ends_in_kernel)
         # the search's budget starts once the checker exists and the goals are known: building
         # a scene's sphere model and compiling kernels happen once, not per plan, and IK has
         # its own time budget
@@ -139,7 +145,19 @@ class Planner:
         while found < request.attempts and time.perf_counter() < deadline:
             tries += 1
             edges = Edges(checker, resolution)
-            path, checked = self._solve(planner_name, edges, start, goals, group, rng, deadline)
+            try:
+                path, checked = self._solve(
+                    planner_name, edges, start, goals, group, rng, deadline,
+                    check_ends=ends_in_kernel,
+                )  # fmt: skip
+            except EndsNotFree:
+                # an error, a nudged start, or states the kernel could not settle
+                ends_in_kernel = False
+                tries -= 1
+                start, prefix = self._start(group, request, checker)
+                if isinstance(request.goal, JointGoal):  # other goals' IK checked its own
+                    goals = self.goal_configurations(group, request.goal, start, checker)
+                continue
             stats["checked_states"] = stats.get("checked_states", 0) + edges.stats.states
             if path is None:
                 reason = (
@@ -211,15 +229,17 @@ class Planner:
         goal: Goal,
         seed: NDArray[np.float64],
         checker: CollisionChecker,
+        collisions: bool = True,
     ) -> NDArray[np.float64]:
         """(G, dof) collision-free configurations that satisfy ``goal``, nearest ``seed`` first.
-        Raises :class:`PlanningError` when there are none, saying why."""
+        Raises :class:`PlanningError` when there are none, saying why. ``collisions=False``:
+        a joint goal is not checked for collisions (the compiled search does it)."""
         if isinstance(goal, JointGoal):
             q = group.as_joint_vector(goal.positions, "joint goal")
             bad = group.limit_violations(q)
             if bad:
                 raise PlanningError(f"joint goal outside the limits: {'; '.join(bad)}")
-            if checker.collides(q):
+            if collisions and checker.collides(q):
                 raise PlanningError(f"joint goal is in collision: {_pairs(checker, q)}")
             return q[None, :]
         robot = self.scene.robot
@@ -294,9 +314,14 @@ class Planner:
 
     # ------------------------------------------------------------------ steps
     def _start(
-        self, group: JointGroup, request: MotionPlanRequest, checker: CollisionChecker
+        self,
+        group: JointGroup,
+        request: MotionPlanRequest,
+        checker: CollisionChecker,
+        collisions: bool = True,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
-        """The start configuration, and the original start when it had to be nudged."""
+        """The start configuration, and the original start when it had to be nudged.
+        ``collisions=False``: not checked for collisions (the compiled search does it)."""
         if request.start is None:
             q = self.scene.state.group_positions(group)
         else:
@@ -310,7 +335,7 @@ class Planner:
                     "(fix_start=True moves it inside)"
                 )
             q = np.clip(q, group.lower, group.upper)
-        if checker.collides(q):
+        if (collisions or q is not original) and checker.collides(q):
             if not request.fix_start:
                 raise PlanningError(
                     f"start state in collision: {_pairs(checker, q)} "
@@ -350,11 +375,13 @@ class Planner:
         rng: Rng,
         deadline: float,
         finish: bool = True,
+        check_ends: bool = False,
     ) -> tuple[NDArray[np.float64] | None, CheckOutputs | None]:
         """A path from ``start`` to one of ``goals`` (None if none was found in time), and,
         when the compiled search found it and ``finish`` is set, the path shortened and its
         final check's outputs, from the same kernel call (else None: the caller shortcuts
-        and checks it)."""
+        and checks it). ``check_ends``: the compiled search classifies the start and the
+        goals first, and raises EndsNotFree if one is not free to it."""
         cfg = self.config
         if planner_name.lower() in NATIVE_PLANNERS:
             lo, hi, step = group.lower, group.upper, cfg.step
@@ -372,6 +399,7 @@ class Planner:
                 path, checked = search_compiled(
                     edges, start, goals, lo, hi, rng, soon, step, searches=cfg.searches,
                     box_margin=cfg.box_margin, box_share=cfg.box_share, finish=todo,
+                    check_ends=check_ends,
                 )  # fmt: skip
                 if path is not None or time.perf_counter() >= deadline:
                     return path, checked
@@ -468,8 +496,6 @@ class Planner:
         usually clips an obstacle between two checked states only: a small step aside there
         clears it, for a few checks instead of a search (radii from 0.02 to 0.4 rad; compiled,
         as a state the kernel leaves unsure blocks a try)."""
-        from robocell.planning import _kernels as PK
-        from robocell.scene.checker import next_epoch
 
         found, via, _ = PK.detour_in(
             np.ascontiguousarray(a, dtype=float),
@@ -502,8 +528,6 @@ class Planner:
         ``segments_checked``: the segments already were, at this resolution, as a repair
         does; only the arcs are checked. Where a segment collides is known whole, for a
         repair (``_kernels._final_check``)."""
-        from robocell.planning import _kernels as PK
-        from robocell.scene.checker import CHUNK, next_epoch
 
         checked = PK.validate_path(
             np.ascontiguousarray(path, dtype=float),
@@ -521,21 +545,26 @@ class Planner:
     ) -> tuple[bool, float, NDArray[np.float64], dict[int, Hit]]:
         """:meth:`_validate`'s answer from the final check's outputs (``validate_path``'s):
         its unsure states settled by coal."""
-        from robocell.scene import _kernels as SK
-
-        states, segment, cls, flags, arcs, arc_cls, arc_flags = checked
+        states, segment, cls, flags, arcs, arc_cls, arc_flags, summary = checked
         dev = self.config.max_deviation
-        # a state HIT or UNSURE (most final checks find none, and settling and sorting
-        # nothing cost 20–30 µs of Python in a 1 ms plan, measured); UNCHECKED: a corner's
-        # stretch of a segment, which the motion does not pass (see validate_path)
-        if not segments_checked and ((cls == SK.HIT).any() or (cls == SK.UNSURE).any()):
+        if summary == 0:
+            # every state classified is FREE, as in most final checks (looking at the classes
+            # in numpy cost 20–35 µs of a 1 ms plan on a plan's cold caches, measured)
+            return True, dev, _NONE, {}
+        # a segment state HIT or UNSURE (UNCHECKED: a corner's stretch of a segment, which
+        # the motion does not pass: see validate_path)
+        if not segments_checked and summary & 1:
             hits = _hits(states, segment, np.flatnonzero(checker.settle(states, cls, flags)))
             if hits:
                 # naming the colliding pair costs as much as the check: the caller does it
                 return False, 0.0, hits[min(hits)].first, hits
-        if arc_cls.any() and checker.settle(arcs, arc_cls, arc_flags).any():
+        if summary & 2 and checker.settle(arcs, arc_cls, arc_flags).any():
             dev = 0.0
-        return True, dev, np.empty(0), {}
+        return True, dev, _NONE, {}
+
+
+_NONE = np.empty((0,))  # no colliding state
+_NONE.flags.writeable = False
 
 
 class Hit(NamedTuple):
@@ -553,7 +582,6 @@ def _first_hits(
 ) -> dict[int, Hit]:
     """Where each of the path's straight segments that collides at ``resolution`` does, by
     segment index (all states checked in one batch)."""
-    from robocell.planning import _kernels as PK
 
     states, segment = PK.segment_states(np.ascontiguousarray(path, dtype=float), resolution)
     return _hits(states, segment, np.flatnonzero(checker.check(states)))

@@ -19,6 +19,11 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+# the compiled steps (numba loads a kernel from its cache on its first call, not here): a
+# plan imported them on its way, 10 µs of a plan on the caches a scene's loading leaves
+from robocell.planning import _kernels as PK
+from robocell.scene.checker import CHUNK, SEARCH_SLOTS, next_epoch
+
 _MASK64 = (1 << 64) - 1
 
 
@@ -266,6 +271,10 @@ class Finish:
 CheckOutputs = tuple[NDArray, ...]  # _kernels.validate_path's
 
 
+class EndsNotFree(Exception):
+    """:func:`search_compiled`: the start or a goal is not FREE to the kernel."""
+
+
 def search_compiled(
     edges: Edges,
     start: NDArray[np.float64],
@@ -281,12 +290,13 @@ def search_compiled(
     box_share: float = 0.8,
     side_by_side: bool | None = None,
     finish: Finish | None = None,
+    check_ends: bool = False,
 ) -> tuple[NDArray[np.float64] | None, CheckOutputs | None]:
     """:func:`rrt_connect_compiled`, then what ``finish`` asks for (the shortcut and the final
     check), in one kernel call (``_kernels.plan_in``): the path (None if none was found) and
-    the final check's outputs (None unless it ran)."""
-    from robocell.planning import _kernels as PK
-    from robocell.scene.checker import CHUNK, SEARCH_SLOTS, next_epoch
+    the final check's outputs (None unless it ran). ``check_ends``: the start and the goals
+    are classified first; :class:`EndsNotFree` is raised if one is not FREE to the kernel
+    (the caller checks them exactly: a collision is an error, or the start is nudged)."""
 
     _, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
     inputs = edges.checker.compiled_inputs  # type: ignore[attr-defined]
@@ -304,10 +314,13 @@ def search_compiled(
             side_by_side = searches > 1 and _threadsafe_layer()
         path, status, st, shortcut_states, *checked = PK.plan_in(
             start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
-            next_epoch((searches + 2) << 40), cap, first_slot, box_margin, box_share,
+            next_epoch((searches + 3) << 40), cap, first_slot, box_margin, box_share,
             side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
             finish.min_states, finish.check_resolution, finish.max_deviation, CHUNK,
+            check_ends,
         )  # fmt: skip
+    if status == PK.ENDS:
+        raise EndsNotFree
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
     edges.stats.states += int(st[3]) + int(shortcut_states)
@@ -348,8 +361,6 @@ def shortcut_compiled(
 ) -> NDArray[np.float64]:
     """:func:`shortcut` compiled whole on the collision kernel (one call instead of one per
     edge). A state the kernel leaves unsure blocks its edge (the shortcut is not taken)."""
-    from robocell.planning import _kernels as PK
-    from robocell.scene.checker import next_epoch
 
     out, stats = PK.shortcut_in(
         np.ascontiguousarray(path, dtype=float),
@@ -376,9 +387,7 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     second process's part alone."""
     if _WARM[0]:
         return
-    from robocell.planning import _kernels as PK
     from robocell.planning import precompile
-    from robocell.scene.checker import CHUNK, SEARCH_SLOTS, next_epoch
 
     model, scratch = checker.kernel_inputs()  # type: ignore[attr-defined]
     inputs = checker.compiled_inputs  # type: ignore[attr-defined]
@@ -394,9 +403,9 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     for side_by_side in (True, False):
         PK.plan_in(
             q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
-            inputs, next_epoch((SEARCH_SLOTS + 2) << 40), 16,
+            inputs, next_epoch((SEARCH_SLOTS + 3) << 40), 16,
             scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, side_by_side, 0, 0.0, 1, 0.5, 1,
-            0.01, 0.05, CHUNK,
+            0.01, 0.05, CHUNK, True,
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1)
     _WARM[0] = not searches_only
