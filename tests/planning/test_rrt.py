@@ -39,6 +39,35 @@ def test_shortcut_keeps_the_ends_shortens_and_stays_free(walled, compiled):
     assert np.all(np.linalg.norm(np.diff(cut, axis=0), axis=1) > 1e-9)
 
 
+def test_compiled_search_adds_whole_edges_then_partial_ones(walled):
+    """The compiled search adds edges whole for its first ``whole_for`` iterations, then as far
+    as they are free: its paths go around the wall on edges free at its resolution either way;
+    a search that ends within ``whole_for`` iterations is the one with whole edges throughout,
+    and partial edges from the start (``whole_for=0``) make other paths."""
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    warm_up(checker)
+    differ = short = 0
+    for seed in range(8):
+        paths, iterations = {}, {}
+        for whole_for in (0, 40, 10**6):
+            edges = Edges(checker, 0.05)
+            path = rrt_connect_compiled(
+                edges, START, GOAL[None], arm.lower, arm.upper, Seeds(seed), 1e18, 0.5,
+                searches=1, box_share=0.0, whole_for=whole_for,
+            )  # fmt: skip
+            assert path is not None and len(path) >= 3
+            assert np.array_equal(path[0], START) and np.array_equal(path[-1], GOAL)
+            for a, b in zip(path[:-1], path[1:], strict=True):
+                assert not checker.check(edges.states(a, b, include_start=True)).any()
+            paths[whole_for], iterations[whole_for] = path, edges.stats.iterations
+        if iterations[10**6] <= 40:
+            short += 1
+            assert np.array_equal(paths[40], paths[10**6])
+        differ += not np.array_equal(paths[0], paths[10**6])
+    assert short > 0 and differ > 0
+
+
 def test_compiled_shortcut_stops_at_its_budget(walled):
     """The random shortcuts check at most ``budget`` states (the greedy passes aside): a
     deterministic cap, whatever the machine's load."""
@@ -207,7 +236,7 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
             path, status, stats = PK.rrt_connect(
                 START, GOAL[None], arm.lower, arm.upper, int(s), 1e18, 0.05, 0.5, model,
                 scratch, next_epoch(1 << 40), 1 << 14, slot, found, 0, arm.lower, arm.upper,
-                0.0,
+                0.0, 40,
             )  # fmt: skip
             assert status == PK.FOUND and found[0] == stats[4]
             alone.append((int(stats[4]), path))

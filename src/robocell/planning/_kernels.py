@@ -128,9 +128,11 @@ def _nearest(Q, n, q):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats):  # type: ignore[no-untyped-def]
-    """Grow the tree (Q, P, n nodes) from node i towards q_to by at most ``step`` (L∞), as far
-    as it is free: the new node's index, or −1 if not even the first state is free."""
+def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats, whole):  # type: ignore[no-untyped-def]
+    """Grow the tree (Q, P, n nodes) from node i towards q_to by at most ``step`` (L∞): the
+    new node's index, or −1 if not even the first state is free. ``whole``: only if the whole
+    edge is free (its states checked coarse to fine, :func:`_edge_free`, so that a blocked
+    edge is rejected after a few), else as far as it is free (checked in order)."""
     dof = q_to.shape[0]
     dist = 0.0
     for j in range(dof):
@@ -141,6 +143,12 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats):  
     target = np.empty(dof)
     for j in range(dof):
         target[j] = Q[i, j] + f * (q_to[j] - Q[i, j])
+    if whole:
+        if not _edge_free(Q[i], target, resolution, model, sc, epoch, buf, stats):
+            return -1
+        Q[n] = target
+        P[n] = i
+        return n
     k, m = _free_prefix(Q[i], target, resolution, model, sc, epoch + stats[2], buf)
     stats[2] += m
     stats[3] += min(k + 1, m)
@@ -157,7 +165,7 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats):  
 @njit(cache=True, nogil=True)
 def rrt_connect(
     start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, epoch, cap,
-    slot, found, me, box_lo, box_hi, p_box,
+    slot, found, me, box_lo, box_hi, p_box, whole_for,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A collision-free path (K, dof) from ``start`` to one of ``goals`` (G, dof) and a status
     (FOUND, NOT_FOUND when ``deadline`` (time.perf_counter) passed, FULL when a tree reached
@@ -218,7 +226,10 @@ def rrt_connect(
         for j in range(dof):
             q_rand[j] = lo[j] + np.random.random() * (hi[j] - lo[j])  # noqa: NPY002
         i = _nearest(Qa, na, q_rand)
-        i_new = _extend(Qa, Pa, na, i, q_rand, step, resolution, model, sc, epoch, buf, stats)
+        whole = stats[0] <= whole_for
+        i_new = _extend(
+            Qa, Pa, na, i, q_rand, step, resolution, model, sc, epoch, buf, stats, whole
+        )  # fmt: skip
         if i_new >= 0:
             na += 1
             q_new = Qa[i_new].copy()
@@ -226,7 +237,7 @@ def rrt_connect(
             j = _nearest(Qb, nb, q_new)
             while nb < cap - 1:
                 j2 = _extend(
-                    Qb, Pb, nb, j, q_new, step, resolution, model, sc, epoch, buf, stats
+                    Qb, Pb, nb, j, q_new, step, resolution, model, sc, epoch, buf, stats, whole
                 )  # fmt: skip
                 if j2 < 0:
                     break
@@ -272,7 +283,7 @@ def rrt_connect(
 @njit(cache=True, parallel=True, nogil=True)
 def rrt_connect_many(
     start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs, cap,
-    first_slot, box_lo, box_hi, p_box,
+    first_slot, box_lo, box_hi, p_box, whole_for,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`rrt_connect` once per seed of ``seeds``, side by side on the kernel's threads
     (search i on scratch slot ``first_slot + i``, from stamp ``epochs[i]``): each stops once
@@ -285,7 +296,7 @@ def rrt_connect_many(
         # prange's index is unsigned: _search_one would be compiled anew for it
         _search_one(
             np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step, model,
-            scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, out,
+            scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, out,
         )  # fmt: skip
     return out
 
@@ -306,7 +317,7 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
 @njit(cache=True, nogil=True)
 def _search_one(
     i, start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs,
-    cap, first_slot, box_lo, box_hi, p_box, out,
+    cap, first_slot, box_lo, box_hi, p_box, whole_for, out,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Search i of :func:`rrt_connect_many` (seed ``seeds[i]``, scratch slot
     ``first_slot + i``, stamps from ``epochs[i]``), its results written into ``out``
@@ -314,7 +325,7 @@ def _search_one(
     paths, lengths, statuses, stats, found = out
     path, status, st = rrt_connect(
         start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
-        epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box,
+        epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
     )  # fmt: skip
     lengths[i] = path.shape[0]
     paths[i, : path.shape[0]] = path
@@ -477,7 +488,7 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
 @njit(cache=True, nogil=True)
 def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
-    first_slot, box_margin, p_box, side_by_side, shortcut_seed, shortcut_deadline,
+    first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_seed, shortcut_deadline,
     shortcut_tries, shortcut_share, shortcut_min, check_resolution, max_deviation, chunk,
     check_ends,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
@@ -493,7 +504,8 @@ def plan_in(
     (:func:`rrt_connect_many`) or one after the other (each later one stops once it has done
     more work than an earlier one that found a path, so that the same one wins), search i on
     scratch slot ``first_slot + i`` from stamp ``epoch + i·2**40``. Samples come from the box
-    around the start and the goals grown by ``box_margin`` with probability ``p_box``. The
+    around the start and the goals grown by ``box_margin`` with probability ``p_box``; edges
+    are added whole for the first ``whole_for`` iterations, then as far as free. The
     shortcut and the final check run on the searches' slots too (from stamps
     ``epoch + n·2**40`` and ``epoch + (n + 1)·2**40``, n searches), so the call needs no
     GIL; the final check on two of them side by side when ``side_by_side``.
@@ -532,14 +544,14 @@ def plan_in(
     if side_by_side:
         out = rrt_connect_many(
             start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch,
-            epochs, cap, first_slot, box_lo, box_hi, p_box,
+            epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for,
         )  # fmt: skip
     else:
         out = _search_outputs(n, cap, dof)
         for i in range(n):
             _search_one(
                 np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step,
-                model, scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, out,
+                model, scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, out,
             )  # fmt: skip
     paths, lengths, statuses, stats, found = out
     best = 0

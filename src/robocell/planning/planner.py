@@ -77,6 +77,9 @@ class PlannerConfig:
     # a share of the search's samples from around the start and goals (rrt_connect_compiled)
     box_share: float = 0.8
     box_margin: float = 2.0
+    # the compiled search's first iterations add whole edges only, the later ones as far as
+    # free (rrt_connect_compiled); 0: as far as free throughout
+    whole_edges_for: int = 40
     # the random shortcuts may check this share of the states the search checked, and at
     # least shortcut_min_states
     shortcut_share: float = 0.5
@@ -399,7 +402,7 @@ class Planner:
                 path, checked = search_compiled(
                     edges, start, goals, lo, hi, rng, soon, step, searches=cfg.searches,
                     box_margin=cfg.box_margin, box_share=cfg.box_share, finish=todo,
-                    check_ends=check_ends,
+                    check_ends=check_ends, whole_for=cfg.whole_edges_for,
                 )  # fmt: skip
                 if path is not None or time.perf_counter() >= deadline:
                     return path, checked
