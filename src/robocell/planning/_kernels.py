@@ -489,45 +489,37 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
 def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
     first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_seed, shortcut_deadline,
-    shortcut_tries, shortcut_share, shortcut_min, check_resolution, max_deviation, chunk,
-    check_ends,
+    shortcut_tries, shortcut_share, shortcut_min, check_ends,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
-    """A plan's compiled steps in one call: (``check_ends``) the start and the goals
-    classified, and status ENDS returned at once if one is not FREE; the searches of
-    :func:`robocell.planning.rrt.rrt_connect_compiled`, then (``shortcut_tries`` > 0) the
+    """A plan's search in one call: (``check_ends``) the start and the goals classified, and
+    status ENDS returned at once if one is not FREE; the searches of
+    :func:`robocell.planning.rrt.rrt_connect_compiled`; then (``shortcut_tries`` > 0) the
     winner's path shortened by :func:`shortcut` (seed ``shortcut_seed``, until
     ``shortcut_deadline``, checking at most ``shortcut_share`` of the states the search
-    checked and at least ``shortcut_min``), then (``check_resolution`` > 0) its final check
-    (:func:`validate_path`).
+    checked and at least ``shortcut_min``).
 
     The searches: one per seed of ``seeds``, side by side on the kernel's threads
     (:func:`rrt_connect_many`) or one after the other (each later one stops once it has done
     more work than an earlier one that found a path, so that the same one wins), search i on
     scratch slot ``first_slot + i`` from stamp ``epoch + i·2**40``. Samples come from the box
     around the start and the goals grown by ``box_margin`` with probability ``p_box``; edges
-    are added whole for the first ``whole_for`` iterations, then as far as free. The
-    shortcut and the final check run on the searches' slots too (from stamps
-    ``epoch + n·2**40`` and ``epoch + (n + 1)·2**40``, n searches), so the call needs no
-    GIL; the final check on two of them side by side when ``side_by_side``.
+    are added whole for the first ``whole_for`` iterations, then as far as free. The ends'
+    check and the shortcut run on the searches' slots too (from stamps
+    ``epoch + (n + 1)·2**40`` and ``epoch + n·2**40``, n searches), so the call needs no GIL.
 
     Returns the path (the winner's, or search 0's if none found one), the search's status
-    and stats (:func:`rrt_connect`), the states the shortcut checked, and the final check's
-    outputs (:func:`validate_path`; empty unless it ran). One call instead of three (each
-    compiled entry point carries its own copy of the collision kernel's code, and the Python
-    between them runs on the caches a scene's loading leaves): Panda table_pick and
-    table_under_pick medians 1–7 % lower, the same paths (50 problems each, alternating in
-    one process, session 16)."""
+    and stats (:func:`rrt_connect`), and the states the shortcut checked. The final check is
+    a call of its own (:func:`validate_path`): with it in this call too (session 16) plans
+    were 1–7 % faster, but this kernel took 220 s to compile instead of about 130, and the
+    first run, which compiles it in a second process (planning.precompile), 250 s instead
+    of 135 (measured)."""
     model, scratch = inputs.model, inputs.scratch
     dof = start.shape[0]
     n = seeds.shape[0]
     if check_ends and not _ends_free(
-        start, goals, model, scratch, epoch + ((n + 2) << 40), first_slot
+        start, goals, model, scratch, epoch + ((n + 1) << 40), first_slot
     ):
-        path = np.empty((0, dof))
-        nothing = _final_check(
-            path, 1.0, 0.0, False, model, scratch, epoch, chunk, first_slot, np.int64(1)
-        )
-        return (path, np.int64(ENDS), np.zeros(5, np.int64), np.int64(0)) + nothing
+        return np.empty((0, dof)), np.int64(ENDS), np.zeros(5, np.int64), np.int64(0)
     box_lo = np.empty(dof)
     box_hi = np.empty(dof)
     for j in range(dof):
@@ -567,35 +559,19 @@ def plan_in(
             shortcut_tries, budget, first_slot,
         )  # fmt: skip
         shortcut_states = st[3]
-    if statuses[best] == FOUND and check_resolution > 0:
-        checked = _final_check(
-            path, check_resolution, max_deviation, True, model, scratch,
-            epoch + ((n + 1) << 40), chunk, first_slot, min(n, 2) if side_by_side else 1,
-        )  # fmt: skip
-    else:
-        checked = _final_check(
-            path[:0], 1.0, 0.0, False, model, scratch, epoch, chunk, first_slot, np.int64(1)
-        )
-    return (path, statuses[best], stats[best].copy(), shortcut_states) + checked
+    return path, statuses[best], stats[best].copy(), shortcut_states
 
 
 @njit(cache=True)
 def _ends_free(start, goals, model, scratch, epoch, slot):  # type: ignore[no-untyped-def]
     """Whether the start and every goal are FREE to the kernel (on scratch slot ``slot``,
-    stamps from ``epoch``), stopping at the first that is not."""
-    dof = start.shape[0]
-    ends = np.empty((1 + goals.shape[0], dof))
+    stamps from ``epoch``), stopping at the first that is not (:func:`SK.scan`, which the
+    searches use too)."""
+    ends = np.empty((1 + goals.shape[0], start.shape[0]))
     ends[0] = start
     ends[1:] = goals
-    cls = np.full(ends.shape[0], SK.UNCHECKED, np.int8)
-    flags = np.zeros((ends.shape[0], model[25].shape[0] + model[26].shape[0]), np.bool_)
-    for i in range(ends.shape[0]):
-        run = np.zeros((1, 2), np.int64)
-        run[0, 0], run[0, 1] = i, i + 1
-        _classify_share(ends, run, 0, 1, cls, flags, model, scratch, epoch, slot)
-        if cls[i] != SK.FREE:
-            return False
-    return True
+    sc = SK.scanner(model, scratch, slot, ends.shape[0])
+    return SK.scan(ends, ends.shape[0], model, sc, epoch) == ends.shape[0]
 
 
 @njit(cache=True)
@@ -645,23 +621,21 @@ def segment_states(path, resolution):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _classify_runs(qs, runs, cls, flags, model, scratch, epoch, chunk, slot0, slots):  # type: ignore[no-untyped-def]
+def _classify_runs(qs, runs, cls, flags, model, scratch, epoch, chunk):  # type: ignore[no-untyped-def]
     """Classify the states of ``qs`` in the runs [s0, s1) of ``runs`` (R, 2), with the unsure
     pairs' flags, into ``cls`` and ``flags`` at their rows (stamps ``epoch + s``): in the
-    calling thread on scratch slot ``slot0`` for at most one chunk of states or if ``slots``
-    is 1, else in equal shares side by side on the kernel's threads, on slots ``slot0`` …
-    ``slot0 + slots − 1`` (on the threads' own slots if ``slots`` is 0). In place: gathering
-    the states into a batch and scattering its classes and flags back cost what skipping
-    the corners' stretches saved (measured)."""
+    calling thread on scratch slot 0 for at most one chunk of states, else a chunk at a time
+    on the kernel's threads, each on its own slot. In place: gathering the states into a
+    batch and scattering its classes and flags back cost what skipping the corners'
+    stretches saved (measured)."""
     total = 0
     for r in range(runs.shape[0]):
         total += runs[r, 1] - runs[r, 0]
-    if total <= chunk or slots == 1:
-        _classify_share(qs, runs, 0, total, cls, flags, model, scratch, epoch, slot0)
-    elif total > 0:
-        # a share per slot, or per chunk on the threads' own slots
-        parts = slots if slots > 0 else (total + chunk - 1) // chunk
-        _classify_shares(qs, runs, total, parts, cls, flags, model, scratch, epoch, slot0, slots)
+    if total <= chunk:
+        _classify_share(qs, runs, 0, total, cls, flags, model, scratch, epoch, np.int64(0))
+    else:
+        _classify_shares(qs, runs, total, (total + chunk - 1) // chunk, cls, flags, model,
+                         scratch, epoch)  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
@@ -685,15 +659,15 @@ def _classify_share(qs, runs, a, b, cls, flags, model, scratch, epoch, slot):  #
         before += n
 
 
-@njit(cache=True, parallel=True, nogil=True)
-def _classify_shares(qs, runs, total, parts, cls, flags, model, scratch, epoch, slot0, slots):  # type: ignore[no-untyped-def]
-    """:func:`_classify_runs` on the kernel's threads, in ``parts`` equal shares."""
+@njit(cache=True, parallel=True)
+def _classify_shares(qs, runs, total, parts, cls, flags, model, scratch, epoch):  # type: ignore[no-untyped-def]
+    """:func:`_classify_runs` on the kernel's threads, in ``parts`` equal shares, each on the
+    slot of the thread that takes it."""
     for p in prange(parts):
         i = np.int64(p)  # prange's index is unsigned
-        slot = slot0 + i if slots > 0 else np.int64(numba.get_thread_id())
         _classify_share(
             qs, runs, total * i // parts, total * (i + 1) // parts, cls, flags, model, scratch,
-            epoch, slot,
+            epoch, np.int64(numba.get_thread_id()),
         )  # fmt: skip
 
 
@@ -705,18 +679,16 @@ def validate_path(path, resolution, max_deviation, check_segments, inputs, epoch
     search; UR5 table_pick, measured)."""
     return _final_check(
         path, resolution, max_deviation, check_segments, inputs.model, inputs.scratch, epoch,
-        chunk, np.int64(0), np.int64(0),
+        chunk,
     )  # fmt: skip
 
 
 @njit(cache=True)
-def _final_check(
-    path, resolution, max_deviation, check_segments, model, scratch, epoch, chunk, slot0, slots
-):  # type: ignore[no-untyped-def]
+def _final_check(path, resolution, max_deviation, check_segments, model, scratch, epoch, chunk):  # type: ignore[no-untyped-def]
     """The final check of ``path`` (K, dof) as it will be executed: its straight segments'
     states at ``resolution`` (if ``check_segments``) and the states of its corners rounded
     within ``max_deviation`` (if > 0), classified by the kernel with the unsure pairs flagged
-    (:func:`_classify_runs` on ``slot0`` and ``slots``). Returns (segment states, their
+    (:func:`_classify_runs`). Returns (segment states, their
     segment, classes, flags, arc states, classes, flags).
 
     The stretches of the segments that the rounded corners replace are classified only when
@@ -778,7 +750,7 @@ def _final_check(
     P = model[25].shape[0] + model[26].shape[0]
     cls = np.full(states.shape[0], SK.UNCHECKED, np.int8)
     flags = np.zeros((states.shape[0], P), np.bool_)
-    _classify_runs(states, off, cls, flags, model, scratch, epoch, chunk, slot0, slots)
+    _classify_runs(states, off, cls, flags, model, scratch, epoch, chunk)
     free = True
     for i in range(cls.shape[0]):
         if cls[i] != SK.FREE and cls[i] != SK.UNCHECKED:
@@ -786,7 +758,7 @@ def _final_check(
             break
     corners_done = not free
     if corners_done:
-        _classify_runs(states, on, cls, flags, model, scratch, epoch, chunk, slot0, slots)
+        _classify_runs(states, on, cls, flags, model, scratch, epoch, chunk)
     hit = False
     for i in range(cls.shape[0]):
         if cls[i] == SK.HIT:
@@ -799,14 +771,14 @@ def _final_check(
     whole = np.zeros((1, 2), np.int64)
     whole[0, 1] = arcs.shape[0]
     arc_epoch = epoch + states.shape[0]
-    _classify_runs(arcs, whole, arc_cls, arc_flags, model, scratch, arc_epoch, chunk, slot0, slots)
+    _classify_runs(arcs, whole, arc_cls, arc_flags, model, scratch, arc_epoch, chunk)
     arcs_free = True
     for i in range(arc_cls.shape[0]):
         if arc_cls[i] != SK.FREE:
             arcs_free = False
             break
     if not arcs_free and not corners_done:
-        _classify_runs(states, on, cls, flags, model, scratch, epoch, chunk, slot0, slots)
+        _classify_runs(states, on, cls, flags, model, scratch, epoch, chunk)
         for i in range(cls.shape[0]):
             if cls[i] != SK.FREE and cls[i] != SK.UNCHECKED:
                 free = False

@@ -269,9 +269,9 @@ def rrt_connect_compiled(
 
 @dataclass
 class Finish:
-    """What :func:`search_compiled` does with the path it found, in the same call: shortcut
-    it (:func:`shortcut_compiled`'s settings, ``tries`` > 0) and give its final check's
-    outputs (``_kernels.validate_path``'s, ``check_resolution`` > 0)."""
+    """What :func:`search_compiled` does with the path it found: shortcut it in the search's
+    kernel call (:func:`shortcut_compiled`'s settings, ``tries`` > 0), and give its final
+    check's outputs (``_kernels.validate_path``'s, ``check_resolution`` > 0)."""
 
     deadline: float  # of the shortcut
     tries: int = 0
@@ -306,9 +306,10 @@ def search_compiled(
     check_ends: bool = False,
     whole_for: int = 40,
 ) -> tuple[NDArray[np.float64] | None, CheckOutputs | None]:
-    """:func:`rrt_connect_compiled`, then what ``finish`` asks for (the shortcut and the final
-    check), in one kernel call (``_kernels.plan_in``): the path (None if none was found) and
-    the final check's outputs (None unless it ran). ``check_ends``: the start and the goals
+    """:func:`rrt_connect_compiled`, then what ``finish`` asks for: the shortcut, in the same
+    kernel call (``_kernels.plan_in``), and the final check (``_kernels.validate_path``).
+    Returns the path (None if none was found) and the final check's outputs (None unless it
+    ran). ``check_ends``: the start and the goals
     are classified first; :class:`EndsNotFree` is raised if one is not FREE to the kernel
     (the caller checks them exactly: a collision is an error, or the start is nudged)."""
 
@@ -326,12 +327,11 @@ def search_compiled(
     with _SEARCH_LOCK:
         if side_by_side is None:
             side_by_side = searches > 1 and _threadsafe_layer()
-        path, status, st, shortcut_states, *checked = PK.plan_in(
+        path, status, st, shortcut_states = PK.plan_in(
             start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
-            next_epoch((searches + 3) << 40), cap, first_slot, box_margin, box_share,
+            next_epoch((searches + 2) << 40), cap, first_slot, box_margin, box_share,
             whole_for, side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
-            finish.min_states, finish.check_resolution, finish.max_deviation, CHUNK,
-            check_ends,
+            finish.min_states, check_ends,
         )  # fmt: skip
     if status == PK.ENDS:
         raise EndsNotFree
@@ -340,7 +340,13 @@ def search_compiled(
     edges.stats.states += int(st[3]) + int(shortcut_states)
     if status != PK.FOUND:
         return None, None
-    return path, (tuple(checked) if finish.check_resolution > 0 else None)
+    if finish.check_resolution <= 0:
+        return path, None
+    checked = PK.validate_path(
+        path, finish.check_resolution, finish.max_deviation, True, inputs, next_epoch(1 << 40),
+        CHUNK,
+    )  # fmt: skip
+    return path, checked
 
 
 def _threadsafe_layer() -> bool:
@@ -417,9 +423,9 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     for side_by_side in (True, False):
         PK.plan_in(
             q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
-            inputs, next_epoch((SEARCH_SLOTS + 3) << 40), 16,
-            scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, 64, side_by_side, 0, 0.0, 1, 0.5, 1,
-            0.01, 0.05, CHUNK, True,
+            inputs, next_epoch((SEARCH_SLOTS + 2) << 40), 16,
+            scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, 40, side_by_side, 0, 0.0, 1, 0.5, 1,
+            True,
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1)
     _WARM[0] = not searches_only
