@@ -143,18 +143,37 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats, wh
     target = np.empty(dof)
     for j in range(dof):
         target[j] = Q[i, j] + f * (q_to[j] - Q[i, j])
-    if whole:
-        if not _edge_free(Q[i], target, resolution, model, sc, epoch, buf, stats):
-            return -1
-        Q[n] = target
-        P[n] = i
-        return n
-    k, m = _free_prefix(Q[i], target, resolution, model, sc, epoch + stats[2], buf)
+    # the edge's states: coarse to fine if it must be free whole (every 8th, then the 4th,
+    # 2nd and 1st between, as :func:`_edge_free`), else in order; one scan call either way
+    # (the search's code compiles in a first run's critical path)
+    a = Q[i]
+    span = 0.0
+    for j in range(dof):
+        span = max(span, abs(target[j] - a[j]))
+    m = max(1, int(math.ceil(span / resolution)))
+    if m > buf.shape[0]:  # a long straight edge: a buffer of its own
+        buf = np.empty((m, dof))
+    r = 0
+    stride = 8 if whole else 1
+    while stride >= 1:
+        for k in range(stride, m + 1, stride):
+            if whole and stride < 8 and k % (2 * stride) == 0:
+                continue
+            t = k / m
+            for j in range(dof):
+                buf[r, j] = a[j] + t * (target[j] - a[j])
+            r += 1
+        stride //= 2
+    k = SK.scan(buf, m, model, sc, epoch + stats[2])
     stats[2] += m
     stats[3] += min(k + 1, m)
-    if k == 0:
+    if whole:
+        if k < m:
+            return -1
+        Q[n] = target
+    elif k == 0:
         return -1
-    if k == m:
+    elif k == m:
         Q[n] = target
     else:
         Q[n] = buf[k - 1]
