@@ -24,7 +24,6 @@ from robocell.scene import _kernels as SK
 from robocell.trajectory import _kernels as TK
 
 FOUND, NOT_FOUND, FULL, STOPPED = 0, 1, 2, 3
-ENDS = 4  # plan_in: the start or a goal is not FREE to the kernel (the caller checks them)
 STATE_WORK = 100  # a state's kinematics and pair loop, in sphere centres placed (fitted)
 
 
@@ -508,11 +507,10 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
 def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
     first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_seed, shortcut_deadline,
-    shortcut_tries, shortcut_share, shortcut_min, check_ends,
+    shortcut_tries, shortcut_share, shortcut_min,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
-    """A plan's search in one call: (``check_ends``) the start and the goals classified, and
-    status ENDS returned at once if one is not FREE; the searches of
-    :func:`robocell.planning.rrt.rrt_connect_compiled`; then (``shortcut_tries`` > 0) the
+    """A plan's search in one call: the searches of
+    :func:`robocell.planning.rrt.rrt_connect_compiled`, then (``shortcut_tries`` > 0) the
     winner's path shortened by :func:`shortcut` (seed ``shortcut_seed``, until
     ``shortcut_deadline``, checking at most ``shortcut_share`` of the states the search
     checked and at least ``shortcut_min``).
@@ -522,23 +520,21 @@ def plan_in(
     more work than an earlier one that found a path, so that the same one wins), search i on
     scratch slot ``first_slot + i`` from stamp ``epoch + i·2**40``. Samples come from the box
     around the start and the goals grown by ``box_margin`` with probability ``p_box``; edges
-    are added whole for the first ``whole_for`` iterations, then as far as free. The ends'
-    check and the shortcut run on the searches' slots too (from stamps
-    ``epoch + (n + 1)·2**40`` and ``epoch + n·2**40``, n searches), so the call needs no GIL.
+    are added whole for the first ``whole_for`` iterations, then as far as free. The
+    shortcut runs on the first search's slot too (from stamp ``epoch + n·2**40``, n
+    searches), so the call needs no GIL.
 
     Returns the path (the winner's, or search 0's if none found one), the search's status
     and stats (:func:`rrt_connect`), and the states the shortcut checked. The final check is
     a call of its own (:func:`validate_path`): with it in this call too (session 16) plans
     were 1–7 % faster, but this kernel took 220 s to compile instead of about 130, and the
     first run, which compiles it in a second process (planning.precompile), 250 s instead
-    of 135 (measured)."""
+    of 135 (measured). Classifying the start and the goals here too (30–40 µs less Python a
+    plan) made that second process take 190 s instead of 144, most of it system time, for a
+    cause not found: the caller checks them."""
     model, scratch = inputs.model, inputs.scratch
     dof = start.shape[0]
     n = seeds.shape[0]
-    if check_ends and not _ends_free(
-        start, goals, model, scratch, epoch + ((n + 1) << 40), first_slot
-    ):
-        return np.empty((0, dof)), np.int64(ENDS), np.zeros(5, np.int64), np.int64(0)
     box_lo = np.empty(dof)
     box_hi = np.empty(dof)
     for j in range(dof):
@@ -579,18 +575,6 @@ def plan_in(
         )  # fmt: skip
         shortcut_states = st[3]
     return path, statuses[best], stats[best].copy(), shortcut_states
-
-
-@njit(cache=True)
-def _ends_free(start, goals, model, scratch, epoch, slot):  # type: ignore[no-untyped-def]
-    """Whether the start and every goal are FREE to the kernel (on scratch slot ``slot``,
-    stamps from ``epoch``), stopping at the first that is not (:func:`SK.scan`, which the
-    searches use too)."""
-    ends = np.empty((1 + goals.shape[0], start.shape[0]))
-    ends[0] = start
-    ends[1:] = goals
-    sc = SK.scanner(model, scratch, slot, ends.shape[0])
-    return SK.scan(ends, ends.shape[0], model, sc, epoch) == ends.shape[0]
 
 
 @njit(cache=True)

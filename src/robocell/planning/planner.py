@@ -28,7 +28,6 @@ from robocell.planning.request import (
 from robocell.planning.rrt import (
     CheckOutputs,
     Edges,
-    EndsNotFree,
     Finish,
     Rng,
     Seeds,
@@ -123,12 +122,8 @@ class Planner:
         checker = self.scene.checker(group)
         if cfg.compiled and request.planner_id.strip().lower() in NATIVE_PLANNERS:
             warm_up(checker)
-        # the compiled search classifies the start and a joint goal itself, first (two kernel
-        # calls and their Python fewer: 30–40 µs of a 1 ms plan on cold caches, measured);
-        # where it finds one not free, they are checked here as for the other planners
-        ends_in_kernel = cfg.compiled and request.planner_id.strip().lower() in NATIVE_PLANNERS
-        start, prefix = self._start(group, request, checker, not ends_in_kernel)
-        goals = self.goal_configurations(group, request.goal, start, checker, not ends_in_kernel)
+        start, prefix = self._start(group, request, checker)
+        goals = self.goal_configurations(group, request.goal, start, checker)
         # the search's budget starts once the checker exists and the goals are known: building
         # a scene's sphere model and compiling kernels happen once, not per plan, and IK has
         # its own time budget
@@ -148,19 +143,7 @@ class Planner:
         while found < request.attempts and time.perf_counter() < deadline:
             tries += 1
             edges = Edges(checker, resolution)
-            try:
-                path, checked = self._solve(
-                    planner_name, edges, start, goals, group, rng, deadline,
-                    check_ends=ends_in_kernel,
-                )  # fmt: skip
-            except EndsNotFree:
-                # an error, a nudged start, or states the kernel could not settle
-                ends_in_kernel = False
-                tries -= 1
-                start, prefix = self._start(group, request, checker)
-                if isinstance(request.goal, JointGoal):  # other goals' IK checked its own
-                    goals = self.goal_configurations(group, request.goal, start, checker)
-                continue
+            path, checked = self._solve(planner_name, edges, start, goals, group, rng, deadline)
             stats["checked_states"] = stats.get("checked_states", 0) + edges.stats.states
             if path is None:
                 reason = (
@@ -232,17 +215,15 @@ class Planner:
         goal: Goal,
         seed: NDArray[np.float64],
         checker: CollisionChecker,
-        collisions: bool = True,
     ) -> NDArray[np.float64]:
         """(G, dof) collision-free configurations that satisfy ``goal``, nearest ``seed`` first.
-        Raises :class:`PlanningError` when there are none, saying why. ``collisions=False``:
-        a joint goal is not checked for collisions (the compiled search does it)."""
+        Raises :class:`PlanningError` when there are none, saying why."""
         if isinstance(goal, JointGoal):
             q = group.as_joint_vector(goal.positions, "joint goal")
             bad = group.limit_violations(q)
             if bad:
                 raise PlanningError(f"joint goal outside the limits: {'; '.join(bad)}")
-            if collisions and checker.collides(q):
+            if checker.collides(q):
                 raise PlanningError(f"joint goal is in collision: {_pairs(checker, q)}")
             return q[None, :]
         robot = self.scene.robot
@@ -321,10 +302,8 @@ class Planner:
         group: JointGroup,
         request: MotionPlanRequest,
         checker: CollisionChecker,
-        collisions: bool = True,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
-        """The start configuration, and the original start when it had to be nudged.
-        ``collisions=False``: not checked for collisions (the compiled search does it)."""
+        """The start configuration, and the original start when it had to be nudged."""
         if request.start is None:
             q = self.scene.state.group_positions(group)
         else:
@@ -338,7 +317,7 @@ class Planner:
                     "(fix_start=True moves it inside)"
                 )
             q = np.clip(q, group.lower, group.upper)
-        if (collisions or q is not original) and checker.collides(q):
+        if checker.collides(q):
             if not request.fix_start:
                 raise PlanningError(
                     f"start state in collision: {_pairs(checker, q)} "
@@ -378,13 +357,11 @@ class Planner:
         rng: Rng,
         deadline: float,
         finish: bool = True,
-        check_ends: bool = False,
     ) -> tuple[NDArray[np.float64] | None, CheckOutputs | None]:
         """A path from ``start`` to one of ``goals`` (None if none was found in time), and,
         when the compiled search found it and ``finish`` is set, the path shortened and its
         final check's outputs, from the same kernel call (else None: the caller shortcuts
-        and checks it). ``check_ends``: the compiled search classifies the start and the
-        goals first, and raises EndsNotFree if one is not free to it."""
+        and checks it)."""
         cfg = self.config
         if planner_name.lower() in NATIVE_PLANNERS:
             lo, hi, step = group.lower, group.upper, cfg.step
@@ -402,7 +379,7 @@ class Planner:
                 path, checked = search_compiled(
                     edges, start, goals, lo, hi, rng, soon, step, searches=cfg.searches,
                     box_margin=cfg.box_margin, box_share=cfg.box_share, finish=todo,
-                    check_ends=check_ends, whole_for=cfg.whole_edges_for,
+                    whole_for=cfg.whole_edges_for,
                 )  # fmt: skip
                 if path is not None or time.perf_counter() >= deadline:
                     return path, checked

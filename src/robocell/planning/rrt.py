@@ -284,10 +284,6 @@ class Finish:
 CheckOutputs = tuple[NDArray, ...]  # _kernels.validate_path's
 
 
-class EndsNotFree(Exception):
-    """:func:`search_compiled`: the start or a goal is not FREE to the kernel."""
-
-
 def search_compiled(
     edges: Edges,
     start: NDArray[np.float64],
@@ -303,15 +299,12 @@ def search_compiled(
     box_share: float = 0.8,
     side_by_side: bool | None = None,
     finish: Finish | None = None,
-    check_ends: bool = False,
     whole_for: int = 40,
 ) -> tuple[NDArray[np.float64] | None, CheckOutputs | None]:
     """:func:`rrt_connect_compiled`, then what ``finish`` asks for: the shortcut, in the same
     kernel call (``_kernels.plan_in``), and the final check (``_kernels.validate_path``).
     Returns the path (None if none was found) and the final check's outputs (None unless it
-    ran). ``check_ends``: the start and the goals
-    are classified first; :class:`EndsNotFree` is raised if one is not FREE to the kernel
-    (the caller checks them exactly: a collision is an error, or the start is nudged)."""
+    ran)."""
 
     _, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
     inputs = edges.checker.compiled_inputs  # type: ignore[attr-defined]
@@ -329,12 +322,10 @@ def search_compiled(
             side_by_side = searches > 1 and _threadsafe_layer()
         path, status, st, shortcut_states = PK.plan_in(
             start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
-            next_epoch((searches + 2) << 40), cap, first_slot, box_margin, box_share,
+            next_epoch((searches + 1) << 40), cap, first_slot, box_margin, box_share,
             whole_for, side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
-            finish.min_states, check_ends,
+            finish.min_states,
         )  # fmt: skip
-    if status == PK.ENDS:
-        raise EndsNotFree
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
     edges.stats.states += int(st[3]) + int(shortcut_states)
@@ -423,9 +414,8 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     for side_by_side in (True, False):
         PK.plan_in(
             q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
-            inputs, next_epoch((SEARCH_SLOTS + 2) << 40), 16,
+            inputs, next_epoch((SEARCH_SLOTS + 1) << 40), 16,
             scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, 40, side_by_side, 0, 0.0, 1, 0.5, 1,
-            True,
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1)
     _WARM[0] = not searches_only
