@@ -18,7 +18,7 @@ EXAMPLE = Path(__file__).resolve().parents[3] / "examples" / "sort_cell.py"
 # process too (planning.precompile; measured)
 FIRST_RUN = (
     "first run: robocell compiles its kernels (numba) and builds the robots' collision models "
-    "once, about 2¼ minutes on 2 cores; later runs start in a few seconds"
+    "once, about 3½ minutes on 2 cores; later runs start in a few seconds"
 )
 
 
