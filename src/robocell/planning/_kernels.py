@@ -72,21 +72,34 @@ else:
 
 
 @njit(cache=True, inline="always")
-def _free_prefix(a, b, resolution, model, sc, epoch, buf):  # type: ignore[no-untyped-def]
-    """(free states after a on the segment a → b, states on it), the states at most
-    ``resolution`` apart per joint, b included, a not; checked on scanner ``sc``
-    (SK.scanner)."""
+def _edge_states(a, b, resolution, buf, coarse):  # type: ignore[no-untyped-def]
+    """The states of the segment a → b (b included, a not), at most ``resolution`` apart per
+    joint, written into ``buf`` (or a buffer of their own if it is too short): in order, or
+    with ``coarse`` every 8th first, then the 4th, 2nd and 1st between them, so that an
+    obstacle across the edge is met early wherever it lies. Returns (the buffer, how many).
+    The shortcut checked 9–16 % fewer states coarse to fine on 30 problems each of UR5
+    table_pick, table_under_pick and box than with every 8th first and the rest in order;
+    109 of 120 paths over six sets came out the same, the others 0–0.5 % shorter on average,
+    more random tries fitting in the budget."""
+    dof = a.shape[0]
     dist = 0.0
-    for j in range(a.shape[0]):
+    for j in range(dof):
         dist = max(dist, abs(b[j] - a[j]))
     n = max(1, int(math.ceil(dist / resolution)))
-    if n > buf.shape[0]:  # a long straight edge: a buffer of its own
-        buf = np.empty((n, a.shape[0]))
-    for k in range(n):
-        t = (k + 1) / n
-        for j in range(a.shape[0]):
-            buf[k, j] = a[j] + t * (b[j] - a[j])
-    return SK.scan(buf, n, model, sc, epoch), n
+    if n > buf.shape[0]:  # a long straight edge
+        buf = np.empty((n, dof))
+    r = 0
+    stride = 8 if coarse else 1
+    while stride >= 1:
+        for k in range(stride, n + 1, stride):
+            if coarse and stride < 8 and k % (2 * stride) == 0:
+                continue  # on a coarser pass's grid
+            t = k / n
+            for j in range(dof):
+                buf[r, j] = a[j] + t * (b[j] - a[j])
+            r += 1
+        stride //= 2
+    return buf, n
 
 
 @njit(cache=True)
@@ -130,8 +143,8 @@ def _nearest(Q, n, q):  # type: ignore[no-untyped-def]
 def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats, whole):  # type: ignore[no-untyped-def]
     """Grow the tree (Q, P, n nodes) from node i towards q_to by at most ``step`` (L∞): the
     new node's index, or −1 if not even the first state is free. ``whole``: only if the whole
-    edge is free (its states checked coarse to fine, :func:`_edge_free`, so that a blocked
-    edge is rejected after a few), else as far as it is free (checked in order)."""
+    edge is free (its states checked coarse to fine, so that a blocked edge is rejected after
+    a few), else as far as it is free (checked in order)."""
     dof = q_to.shape[0]
     dist = 0.0
     for j in range(dof):
@@ -142,28 +155,9 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats, wh
     target = np.empty(dof)
     for j in range(dof):
         target[j] = Q[i, j] + f * (q_to[j] - Q[i, j])
-    # the edge's states: coarse to fine if it must be free whole (every 8th, then the 4th,
-    # 2nd and 1st between, as :func:`_edge_free`), else in order; one scan call either way
-    # (the search's code compiles in a first run's critical path)
-    a = Q[i]
-    span = 0.0
-    for j in range(dof):
-        span = max(span, abs(target[j] - a[j]))
-    m = max(1, int(math.ceil(span / resolution)))
-    if m > buf.shape[0]:  # a long straight edge: a buffer of its own
-        buf = np.empty((m, dof))
-    r = 0
-    stride = 8 if whole else 1
-    while stride >= 1:
-        for k in range(stride, m + 1, stride):
-            if whole and stride < 8 and k % (2 * stride) == 0:
-                continue
-            t = k / m
-            for j in range(dof):
-                buf[r, j] = a[j] + t * (target[j] - a[j])
-            r += 1
-        stride //= 2
-    k = SK.scan(buf, m, model, sc, epoch + stats[2])
+    # one scan call either way (the search's code compiles in a first run's critical path)
+    qs, m = _edge_states(Q[i], target, resolution, buf, whole)
+    k = SK.scan(qs, m, model, sc, epoch + stats[2])
     stats[2] += m
     stats[3] += min(k + 1, m)
     if whole:
@@ -175,7 +169,7 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats, wh
     elif k == m:
         Q[n] = target
     else:
-        Q[n] = buf[k - 1]
+        Q[n] = qs[k - 1]
     P[n] = i
     return n
 
@@ -207,10 +201,7 @@ def rrt_connect(
     for g in range(goals.shape[0]):
         d[g] = np.sqrt(np.sum((goals[g] - start) ** 2))
     for g in np.argsort(d)[: 4 if me == 0 else 0]:
-        k, m = _free_prefix(start, goals[g], resolution, model, sc, epoch + stats[2], buf)
-        stats[2] += m
-        stats[3] += min(k + 1, m)
-        if k == m:
+        if _edge_free(start, goals[g], resolution, model, sc, epoch, buf, stats):
             path = np.empty((2, dof))
             path[0] = start
             path[1] = goals[g]
@@ -354,31 +345,11 @@ def _search_one(
 @njit(cache=True, inline="always")
 def _edge_free(a, b, resolution, model, sc, epoch, buf, stats):  # type: ignore[no-untyped-def]
     """Whether the segment a → b (b included, a assumed free) is free, its states at most
-    ``resolution`` apart per joint, stopping at the first state that is not FREE. Every 8th
-    state is checked first, then the 4th, 2nd and 1st between them, so that an obstacle
-    across the edge is met early wherever it lies (the shortcut checked 9–16 % fewer states
-    on 30 problems each of UR5 table_pick, table_under_pick and box than with every 8th
-    first and the rest in order; 109 of 120 paths over six sets came out the same, the others
-    0–0.5 % shorter on average, more random tries fitting in the budget). Counts epochs and
-    states in ``stats`` (2: epochs used, 3: states checked). ``sc``: SK.scanner."""
-    dof = a.shape[0]
-    dist = 0.0
-    for j in range(dof):
-        dist = max(dist, abs(b[j] - a[j]))
-    n = max(1, int(math.ceil(dist / resolution)))
-    if n > buf.shape[0]:
-        buf = np.empty((n, dof))
-    r = 0
-    for stride in (8, 4, 2, 1):
-        # the states k·stride not on a coarser pass's grid (8, then 4, 2 and 1 between)
-        for k in range(stride, n + 1, stride):
-            if stride < 8 and k % (2 * stride) == 0:
-                continue
-            t = k / n
-            for j in range(dof):
-                buf[r, j] = a[j] + t * (b[j] - a[j])
-            r += 1
-    k = SK.scan(buf, n, model, sc, epoch + stats[2])
+    ``resolution`` apart per joint checked coarse to fine (:func:`_edge_states`), stopping
+    at the first that is not FREE. Counts epochs and states in ``stats`` (2: epochs used,
+    3: states checked). ``sc``: SK.scanner."""
+    qs, n = _edge_states(a, b, resolution, buf, True)
+    k = SK.scan(qs, n, model, sc, epoch + stats[2])
     stats[2] += n
     stats[3] += min(k + 1, n)
     return k == n
@@ -626,52 +597,40 @@ def segment_states(path, resolution):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def _classify_runs(qs, runs, cls, flags, model, scratch, epoch, chunk):  # type: ignore[no-untyped-def]
     """Classify the states of ``qs`` in the runs [s0, s1) of ``runs`` (R, 2), with the unsure
-    pairs' flags, into ``cls`` and ``flags`` at their rows (stamps ``epoch + s``): in the
-    calling thread on scratch slot 0 for at most one chunk of states, else a chunk at a time
-    on the kernel's threads, each on its own slot. In place: gathering the states into a
-    batch and scattering its classes and flags back cost what skipping the corners'
-    stretches saved (measured)."""
+    pairs' flags, into ``cls`` and ``flags`` at their rows: gathered into one batch for the
+    checker's own kernels (:func:`SK.classify_serial` for at most one chunk of states, else
+    :func:`SK.classify` on the kernel's threads), stamped ``epoch`` + the batch's row.
+    Returns how many states it classified (the caller's next epoch is ``epoch`` + that).
+
+    The checker's kernels, not a copy of their loop over runs in place: a first run compiles
+    them before any plan, and the copy (two more functions around the classifier, one of them
+    parallel) took 61 s to compile in the main process, on the path of a first run's first
+    plan (session 17, measured); gathering costs a microsecond."""
     total = 0
     for r in range(runs.shape[0]):
         total += runs[r, 1] - runs[r, 0]
-    if total <= chunk:
-        _classify_share(qs, runs, 0, total, cls, flags, model, scratch, epoch, np.int64(0))
-    else:
-        _classify_shares(qs, runs, total, (total + chunk - 1) // chunk, cls, flags, model,
-                         scratch, epoch)  # fmt: skip
-
-
-@njit(cache=True, nogil=True)
-def _classify_share(qs, runs, a, b, cls, flags, model, scratch, epoch, slot):  # type: ignore[no-untyped-def]
-    """The a-th to the (b − 1)-th of the states in ``runs`` (counted along the runs) for
-    :func:`_classify_runs`, on scratch slot ``slot``."""
-    if a >= b:
-        return
-    W, stamp, Wi, stamp_i, seen, pairs, T = SK._slot(scratch, slot)
-    buffers = SK._range_buffers(model)
-    row = np.zeros(0, np.bool_)
-    before = 0
+    if total == 0:
+        return total
+    batch = np.empty((total, qs.shape[1]))
+    row = 0
     for r in range(runs.shape[0]):
-        s0, n = runs[r, 0], runs[r, 1] - runs[r, 0]
-        lo, hi = max(a - before, 0), min(b - before, n)
-        if lo < hi:
-            SK._classify_range(
-                s0 + lo, s0 + hi, qs, model, W, stamp, Wi, stamp_i, seen, pairs, T, epoch, flags,
-                np.bool_(True), row, cls, buffers, np.bool_(False),
-            )  # fmt: skip
-        before += n
-
-
-@njit(cache=True, parallel=True)
-def _classify_shares(qs, runs, total, parts, cls, flags, model, scratch, epoch):  # type: ignore[no-untyped-def]
-    """:func:`_classify_runs` on the kernel's threads, in ``parts`` equal shares, each on the
-    slot of the thread that takes it."""
-    for p in prange(parts):
-        i = np.int64(p)  # prange's index is unsigned
-        _classify_share(
-            qs, runs, total * i // parts, total * (i + 1) // parts, cls, flags, model, scratch,
-            epoch, np.int64(numba.get_thread_id()),
-        )  # fmt: skip
+        for s in range(runs[r, 0], runs[r, 1]):
+            batch[row] = qs[s]
+            row += 1
+    if total <= chunk:
+        out, out_flags = SK.classify_serial(
+            batch, model, scratch, epoch, np.bool_(True), np.bool_(False), np.int64(0)
+        )
+    else:
+        out, out_flags = SK.classify(batch, model, scratch, epoch, np.bool_(True), chunk)
+    row = 0
+    for r in range(runs.shape[0]):
+        for s in range(runs[r, 0], runs[r, 1]):
+            cls[s] = out[row]
+            if out[row] == SK.UNSURE:  # the flags of the others are all False
+                flags[s] = out_flags[row]
+            row += 1
+    return total
 
 
 @njit(cache=True)
@@ -753,7 +712,7 @@ def _final_check(path, resolution, max_deviation, check_segments, model, scratch
     P = model[25].shape[0] + model[26].shape[0]
     cls = np.full(states.shape[0], SK.UNCHECKED, np.int8)
     flags = np.zeros((states.shape[0], P), np.bool_)
-    _classify_runs(states, off, cls, flags, model, scratch, epoch, chunk)
+    n_off = _classify_runs(states, off, cls, flags, model, scratch, epoch, chunk)
     free = True
     for i in range(cls.shape[0]):
         if cls[i] != SK.FREE and cls[i] != SK.UNCHECKED:
@@ -761,7 +720,7 @@ def _final_check(path, resolution, max_deviation, check_segments, model, scratch
             break
     corners_done = not free
     if corners_done:
-        _classify_runs(states, on, cls, flags, model, scratch, epoch, chunk)
+        _classify_runs(states, on, cls, flags, model, scratch, epoch + n_off, chunk)
     hit = False
     for i in range(cls.shape[0]):
         if cls[i] == SK.HIT:
@@ -781,7 +740,7 @@ def _final_check(path, resolution, max_deviation, check_segments, model, scratch
             arcs_free = False
             break
     if not arcs_free and not corners_done:
-        _classify_runs(states, on, cls, flags, model, scratch, epoch, chunk)
+        _classify_runs(states, on, cls, flags, model, scratch, epoch + n_off, chunk)
         for i in range(cls.shape[0]):
             if cls[i] != SK.FREE and cls[i] != SK.UNCHECKED:
                 free = False
