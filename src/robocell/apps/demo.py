@@ -14,11 +14,11 @@ from robocell.errors import RobocellError
 
 EXAMPLE = Path(__file__).resolve().parents[3] / "examples" / "sort_cell.py"
 # shown until a demo has run to its end once with this cache (see scene.spheres.cache_root);
-# from a fresh clone on 2 cores: 135 s, 221 s with the planning kernels compiled in this
-# process too (planning.precompile; measured)
+# from a fresh clone on 2 cores: 168 s (session 17), 221 s with the planning kernels compiled
+# in this process too (planning.precompile; measured)
 FIRST_RUN = (
     "first run: robocell compiles its kernels (numba) and builds the robots' collision models "
-    "once, about 3½ minutes on 2 cores; later runs start in a few seconds"
+    "once, about 3 minutes on 2 cores; later runs start in a few seconds"
 )
 
 
