@@ -310,3 +310,48 @@ def test_a_plan_is_reproducible_from_its_seed(walled):
         assert plan.success
         paths.append(plan.path)
     assert np.array_equal(paths[0], paths[1])
+
+
+def test_final_check_classifies_each_state_as_the_checker_does(irb120):
+    """The final check's classes and unsure pairs' flags, state by state, are the checker's
+    own for the same states (segments and arcs; the corners' stretches it skipped stay
+    UNCHECKED): on paths short enough for one thread and long enough for several, past a
+    mesh that leaves states unsure."""
+    from robocell.planning import _kernels as PK
+    from robocell.scene import _kernels as SK
+    from robocell.scene.checker import CHUNK, next_epoch
+    from tests.conftest import mbm_dir
+
+    scene = PlanningScene(irb120)
+    stl = mbm_dir() / "ur5" / "meshes" / "robotiq_fts300.stl"
+    scene.add_mesh("sensor", Pose((0.35, 0.0, 0.45)), stl, scale=(3, 3, 3))
+    arm = irb120.group("arm")
+    checker = scene.checker(arm)
+    warm_up(checker)
+    rng = np.random.default_rng(11)
+    seen = set()
+    sizes = set()
+    for waypoints in [3] * 10 + [6] * 10:
+        path = arm.random(rng, waypoints)
+        if waypoints == 3:  # short segments: at most one chunk of states
+            path = path[0] + 0.04 * (path - path[0])
+        out = PK.validate_path(
+            path, 0.01, 0.05, True, checker.compiled_inputs, next_epoch(1 << 40), CHUNK
+        )
+        states, segment, cls, flags, arcs, arc_cls, arc_flags, summary = out
+        sizes.add(len(states) > CHUNK)
+        assert np.allclose(states[[0, -1]], path[[0, -1]], rtol=0, atol=1e-12)
+        for qs, got, got_flags in ((states, cls, flags), (arcs, arc_cls, arc_flags)):
+            done = got != SK.UNCHECKED
+            if not done.any():
+                continue
+            want, want_flags = checker.classify(qs[done])
+            assert np.array_equal(got[done], want)
+            unsure = want == SK.UNSURE
+            assert np.array_equal(got_flags[done][unsure], want_flags[unsure])
+            assert not got_flags[done][~unsure].any()
+            seen |= set(want.tolist())
+        free = (cls[cls != SK.UNCHECKED] == SK.FREE).all() and (arc_cls == SK.FREE).all()
+        assert (summary == 0) == free
+    assert sizes == {False, True}  # both ways through the kernels
+    assert seen == {SK.FREE, SK.HIT, SK.UNSURE}  # every class was met
