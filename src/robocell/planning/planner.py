@@ -26,14 +26,13 @@ from robocell.planning.request import (
     PositionGoal,
 )
 from robocell.planning.rrt import (
-    CheckOutputs,
     Edges,
     Finish,
     Rng,
     Seeds,
     dedupe,
     rrt_connect,
-    search_compiled,
+    rrt_connect_compiled,
     seed_of,
     shortcut,
     shortcut_compiled,
@@ -46,6 +45,7 @@ from robocell.trajectory.path import BlendedPath
 from robocell.trajectory.timing import time_optimal
 
 NATIVE_PLANNERS = ("", "rrtconnect", "robocell")
+CheckOutputs = tuple[NDArray, ...]  # _kernels.validate_path's
 
 
 @dataclass
@@ -143,7 +143,7 @@ class Planner:
         while found < request.attempts and time.perf_counter() < deadline:
             tries += 1
             edges = Edges(checker, resolution)
-            path, checked = self._solve(planner_name, edges, start, goals, group, rng, deadline)
+            path, shortened = self._solve(planner_name, edges, start, goals, group, rng, deadline)
             stats["checked_states"] = stats.get("checked_states", 0) + edges.stats.states
             if path is None:
                 reason = (
@@ -151,9 +151,7 @@ class Planner:
                     f"({edges.stats.iterations} iterations, {edges.stats.nodes} nodes)"
                 )
                 continue
-            if checked is not None:  # shortcut and checked in the search's call
-                ok, dev, bad, hits = self._judge(checker, checked)
-            else:
+            if not shortened:  # else in the search's kernel call
                 if cfg.shortcut and (native or not cfg.ompl_simplify):
                     budget = max(
                         cfg.shortcut_min_states, int(cfg.shortcut_share * edges.stats.states)
@@ -161,7 +159,7 @@ class Planner:
                     path = self._shortcut(edges, path, rng, deadline, budget)
                 else:
                     path = dedupe(path)  # a tree's connect step can repeat a node
-                ok, dev, bad, hits = self._validate(checker, path)
+            ok, dev, bad, hits = self._validate(checker, path)
             if not ok and native:
                 # repair the segments that collide between checked states, each by a search
                 # between its ends at the validation resolution, before replanning it all
@@ -356,12 +354,11 @@ class Planner:
         group: JointGroup,
         rng: Rng,
         deadline: float,
-        finish: bool = True,
-    ) -> tuple[NDArray[np.float64] | None, CheckOutputs | None]:
-        """A path from ``start`` to one of ``goals`` (None if none was found in time), and,
-        when the compiled search found it and ``finish`` is set, the path shortened and its
-        final check's outputs, from the same kernel call (else None: the caller shortcuts
-        and checks it)."""
+        shorten: bool = True,
+    ) -> tuple[NDArray[np.float64] | None, bool]:
+        """A path from ``start`` to one of ``goals`` (None if none was found in time), and
+        whether it is shortcut already: by the compiled search, in the same kernel call, if
+        ``shorten`` and the config's ``shortcut`` (else the caller shortcuts it)."""
         cfg = self.config
         if planner_name.lower() in NATIVE_PLANNERS:
             lo, hi, step = group.lower, group.upper, cfg.step
@@ -371,19 +368,18 @@ class Planner:
                 now = time.perf_counter()
                 soon = now + cfg.compiled_share * (deadline - now)
                 todo = None
-                if finish and cfg.shortcut:
+                if shorten and cfg.shortcut:
                     todo = Finish(
-                        deadline, cfg.shortcut_tries, cfg.shortcut_share,
-                        cfg.shortcut_min_states, cfg.validation_resolution, cfg.max_deviation,
-                    )  # fmt: skip
-                path, checked = search_compiled(
+                        deadline, cfg.shortcut_tries, cfg.shortcut_share, cfg.shortcut_min_states
+                    )
+                path = rrt_connect_compiled(
                     edges, start, goals, lo, hi, rng, soon, step, searches=cfg.searches,
-                    box_margin=cfg.box_margin, box_share=cfg.box_share, finish=todo,
-                    whole_for=cfg.whole_edges_for,
+                    box_margin=cfg.box_margin, box_share=cfg.box_share,
+                    whole_for=cfg.whole_edges_for, finish=todo,
                 )  # fmt: skip
                 if path is not None or time.perf_counter() >= deadline:
-                    return path, checked
-            return rrt_connect(edges, start, goals, lo, hi, rng, deadline, step), None
+                    return path, path is not None and todo is not None
+            return rrt_connect(edges, start, goals, lo, hi, rng, deadline, step), False
         from robocell.planning import ompl_backend
 
         if not ompl_backend.is_ompl_name(planner_name):
@@ -403,7 +399,7 @@ class Planner:
             cfg.ompl_state_check,
             cfg.ompl_simplify,
         )
-        return path, None
+        return path, False
 
     def _shortcut(
         self,

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 # the compiled steps (numba loads a kernel from its cache on its first call, not here): a
 # plan imported them on its way, 10 µs of a plan on the caches a scene's loading leaves
 from robocell.planning import _kernels as PK
-from robocell.scene.checker import CHUNK, SEARCH_SLOTS, next_epoch
+from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 
 _MASK64 = (1 << 64) - 1
 
@@ -204,6 +204,17 @@ def rrt_connect(
     return None
 
 
+@dataclass
+class Finish:
+    """The shortcut :func:`rrt_connect_compiled` makes of the path it found, in the search's
+    kernel call (:func:`shortcut_compiled`'s settings)."""
+
+    deadline: float  # of the shortcut
+    tries: int = 0
+    share: float = 0.5
+    min_states: int = 100
+
+
 def rrt_connect_compiled(
     edges: Edges,
     start: NDArray[np.float64],
@@ -219,6 +230,7 @@ def rrt_connect_compiled(
     box_share: float = 0.8,
     side_by_side: bool | None = None,
     whole_for: int = 40,
+    finish: Finish | None = None,
 ) -> NDArray[np.float64] | None:
     """:func:`rrt_connect` compiled whole on the collision kernel (see
     :mod:`robocell.planning._kernels`): a path, or None when the deadline passed or a tree
@@ -259,53 +271,11 @@ def rrt_connect_compiled(
     7 % on the UR5's, p95 lower on most (Panda table_under_pick 4.7 → 3.0 ms), paths as
     long or shorter. Whole edges throughout made the UR5's cage, whose searches run for
     hundreds of iterations, 35–66 % slower; a switch after 24 iterations cost the Panda's
-    table_under_pick 7 % against 64, and 64 the UR5's cage 20 %."""
-    path, _ = search_compiled(
-        edges, start, goals, lower, upper, rng, deadline, step, cap, searches, box_margin,
-        box_share, side_by_side, whole_for=whole_for,
-    )  # fmt: skip
-    return path
+    table_under_pick 7 % against 64, and 64 the UR5's cage 20 %.
 
-
-@dataclass
-class Finish:
-    """What :func:`search_compiled` does with the path it found: shortcut it in the search's
-    kernel call (:func:`shortcut_compiled`'s settings, ``tries`` > 0), and give its final
-    check's outputs (``_kernels.validate_path``'s, ``check_resolution`` > 0)."""
-
-    deadline: float  # of the shortcut
-    tries: int = 0
-    share: float = 0.5
-    min_states: int = 100
-    check_resolution: float = 0.0
-    max_deviation: float = 0.0
-
-
-CheckOutputs = tuple[NDArray, ...]  # _kernels.validate_path's
-
-
-def search_compiled(
-    edges: Edges,
-    start: NDArray[np.float64],
-    goals: NDArray[np.float64],
-    lower: NDArray[np.float64],
-    upper: NDArray[np.float64],
-    rng: Rng,
-    deadline: float,
-    step: float = 0.8,
-    cap: int = 1 << 14,
-    searches: int = 2,
-    box_margin: float = 2.0,
-    box_share: float = 0.8,
-    side_by_side: bool | None = None,
-    finish: Finish | None = None,
-    whole_for: int = 40,
-) -> tuple[NDArray[np.float64] | None, CheckOutputs | None]:
-    """:func:`rrt_connect_compiled`, then what ``finish`` asks for: the shortcut, in the same
-    kernel call (``_kernels.plan_in``), and the final check (``_kernels.validate_path``).
-    Returns the path (None if none was found) and the final check's outputs (None unless it
-    ran)."""
-
+    ``finish``: the path found shortcut in the same kernel call (``_kernels.plan_in``), as
+    :func:`shortcut_compiled` does it with these settings; the planner then checks it
+    (``_kernels.validate_path``)."""
     _, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
     inputs = edges.checker.compiled_inputs  # type: ignore[attr-defined]
     searches = max(1, min(searches, SEARCH_SLOTS))
@@ -329,15 +299,7 @@ def search_compiled(
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
     edges.stats.states += int(st[3]) + int(shortcut_states)
-    if status != PK.FOUND:
-        return None, None
-    if finish.check_resolution <= 0:
-        return path, None
-    checked = PK.validate_path(
-        path, finish.check_resolution, finish.max_deviation, True, inputs, next_epoch(1 << 40),
-        CHUNK,
-    )  # fmt: skip
-    return path, checked
+    return path if status == PK.FOUND else None
 
 
 def _threadsafe_layer() -> bool:
