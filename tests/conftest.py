@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 import pytest
@@ -26,6 +27,13 @@ def shared_dir() -> Path:
 
 def mbm_dir() -> Path:
     return shared_dir() / "bench" / "mbm"
+
+
+def busy(seconds: float) -> None:
+    """Keep this thread's core busy for ``seconds`` (the opposite of time.sleep)."""
+    end = time.perf_counter() + seconds
+    while time.perf_counter() < end:
+        pass
 
 
 def load_mbm(robot: str) -> RobotModel:

@@ -98,6 +98,54 @@ def test_seeded_planning_is_reproducible(walled):
     assert np.array_equal(a.path, b.path)
 
 
+def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path(walled):
+    """After the process rested, the kernel's sleeping threads are slow to wake: a plan then
+    runs its searches one after the other and its final check in the calling thread, and
+    finds the same path as a plan made while the process is busy (searches side by side)."""
+    import time
+
+    import robocell.planning.planner as planner_module
+    from robocell.scene.checker import CHUNK, REST_CHUNK, threads_rested
+    from tests.conftest import busy
+
+    threads_rested()
+    time.sleep(0.06)
+    assert threads_rested()
+    busy(0.03)
+    assert not threads_rested()
+
+    calls: list[tuple[str, object]] = []
+    search, validate = planner_module.rrt_connect_compiled, planner_module.PK.validate_path
+
+    def spy_search(*args, **kwargs):  # type: ignore[no-untyped-def]
+        calls.append(("side_by_side", kwargs["side_by_side"]))
+        return search(*args, **kwargs)
+
+    def spy_validate(*args):  # type: ignore[no-untyped-def]
+        calls.append(("chunk", args[-1]))
+        return validate(*args)
+
+    p = Planner(walled)
+    request = MotionPlanRequest("arm", JointGoal(GOAL), start=START, seed=9, planning_time=60)
+    p.plan(request)  # kernels compiled or loaded (warm_up's own calls are not the plan's)
+    paths = []
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(planner_module, "rrt_connect_compiled", spy_search)
+        mp.setattr(planner_module.PK, "validate_path", spy_validate)
+        seen = []
+        for rest in (time.sleep, busy):
+            threads_rested()
+            rest(0.06)
+            paths.append(p.plan(request).path)
+            seen.append(set(calls))  # (a repair validates once more)
+            calls.clear()
+    assert seen == [
+        {("side_by_side", False), ("chunk", REST_CHUNK)},
+        {("side_by_side", None), ("chunk", CHUNK)},
+    ]
+    assert np.array_equal(paths[0], paths[1])
+
+
 def test_pose_goal_reaches_the_pose(walled):
     arm = walled.robot.group("arm")
     target = Pose.from_rpy(0.3, 0.25, 0.3, 0, math.pi / 2, 0)

@@ -1,3 +1,5 @@
+import time
+
 import numpy as np
 import pytest
 
@@ -188,6 +190,33 @@ def test_collides_answers_as_check_does_for_one_state(scene, irb120):
         checker.collides(qs[:2])
     with pytest.raises(ModelError, match="NaN"):
         checker.collides(np.full(arm.dof, np.nan))
+
+
+def test_a_batch_after_a_rest_is_checked_in_the_calling_thread(scene, irb120, monkeypatch):
+    """After the process rested (the kernel's sleeping threads slow to wake), a batch of up
+    to REST_CHUNK states is classified in the calling thread; while the process is busy, on
+    the kernel's threads. The answers are the same."""
+    from robocell.scene import checker as checker_module
+    from tests.conftest import busy
+
+    arm = irb120.group("arm")
+    checker = scene.checker(arm)
+    qs = arm.random(np.random.default_rng(2), 300)
+    checker.check(qs)  # compiled or loaded
+    threaded = []
+    parallel = checker_module.K.classify_in
+    monkeypatch.setattr(
+        checker_module.K,
+        "classify_in",
+        lambda *args: threaded.append(len(args[0])) or parallel(*args),
+    )
+    answers = []
+    for rest in (time.sleep, busy):
+        checker_module.threads_rested()
+        rest(0.06)
+        answers.append(checker.check(qs))
+    assert threaded == [300]  # the second batch only
+    assert np.array_equal(answers[0], answers[1]) and answers[0].any() and not answers[0].all()
 
 
 @pytest.mark.parametrize("seed", [0, 1])

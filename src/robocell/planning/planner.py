@@ -39,7 +39,13 @@ from robocell.planning.rrt import (
     warm_up,
 )
 from robocell.robot.model import JointGroup
-from robocell.scene.checker import CHUNK, CollisionChecker, next_epoch
+from robocell.scene.checker import (
+    CHUNK,
+    REST_CHUNK,
+    CollisionChecker,
+    next_epoch,
+    threads_rested,
+)
 from robocell.scene.planning_scene import PlanningScene
 from robocell.trajectory.path import BlendedPath
 from robocell.trajectory.timing import time_optimal
@@ -73,6 +79,9 @@ class PlannerConfig:
     # compiled searches side by side, on seeds of their own (threads): the one that needs
     # the least work wins (rrt.rrt_connect_compiled)
     searches: int = 2
+    # the kernel's threads for the searches and the final check: None: unless the process
+    # rested since the last plan (they are slow to wake then: see checker.REST_CHUNK)
+    threads: bool | None = None
     # a share of the search's samples from around the start and goals (rrt_connect_compiled)
     box_share: float = 0.8
     box_margin: float = 2.0
@@ -122,6 +131,8 @@ class Planner:
         checker = self.scene.checker(group)
         if cfg.compiled and request.planner_id.strip().lower() in NATIVE_PLANNERS:
             warm_up(checker)
+        threads = cfg.threads if cfg.threads is not None else not threads_rested()
+        chunk = CHUNK if threads else REST_CHUNK
         start, prefix = self._start(group, request, checker)
         goals = self.goal_configurations(group, request.goal, start, checker)
         # the search's budget starts once the checker exists and the goals are known: building
@@ -143,7 +154,9 @@ class Planner:
         while found < request.attempts and time.perf_counter() < deadline:
             tries += 1
             edges = Edges(checker, resolution)
-            path, shortened = self._solve(planner_name, edges, start, goals, group, rng, deadline)
+            path, shortened = self._solve(
+                planner_name, edges, start, goals, group, rng, deadline, threads=threads
+            )
             stats["checked_states"] = stats.get("checked_states", 0) + edges.stats.states
             if path is None:
                 reason = (
@@ -159,14 +172,14 @@ class Planner:
                     path = self._shortcut(edges, path, rng, deadline, budget)
                 else:
                     path = dedupe(path)  # a tree's connect step can repeat a node
-            ok, dev, bad, hits = self._validate(checker, path)
+            ok, dev, bad, hits = self._validate(checker, path, chunk=chunk)
             if not ok and native:
                 # repair the segments that collide between checked states, each by a search
                 # between its ends at the validation resolution, before replanning it all
                 repaired = self._repair(checker, path, group, rng, deadline, hits)
                 if repaired is not None:
                     path = repaired
-                    ok, dev, bad, _ = self._validate(checker, path, segments_checked=True)
+                    ok, dev, bad, _ = self._validate(checker, path, True, chunk)
                     stats["repairs"] = stats.get("repairs", 0) + 1
             if not ok:
                 reason = (
@@ -355,10 +368,13 @@ class Planner:
         rng: Rng,
         deadline: float,
         shorten: bool = True,
+        threads: bool = True,
     ) -> tuple[NDArray[np.float64] | None, bool]:
         """A path from ``start`` to one of ``goals`` (None if none was found in time), and
         whether it is shortcut already: by the compiled search, in the same kernel call, if
-        ``shorten`` and the config's ``shortcut`` (else the caller shortcuts it)."""
+        ``shorten`` and the config's ``shortcut`` (else the caller shortcuts it). ``threads``:
+        the compiled searches may run side by side (else one after the other: the same
+        path)."""
         cfg = self.config
         if planner_name.lower() in NATIVE_PLANNERS:
             lo, hi, step = group.lower, group.upper, cfg.step
@@ -376,6 +392,7 @@ class Planner:
                     edges, start, goals, lo, hi, rng, soon, step, searches=cfg.searches,
                     box_margin=cfg.box_margin, box_share=cfg.box_share,
                     whole_for=cfg.whole_edges_for, finish=todo,
+                    side_by_side=None if threads else False,
                 )  # fmt: skip
                 if path is not None or time.perf_counter() >= deadline:
                     return path, path is not None and todo is not None
@@ -492,6 +509,7 @@ class Planner:
         checker: CollisionChecker,
         path: NDArray[np.float64],
         segments_checked: bool = False,
+        chunk: int = CHUNK,
     ) -> tuple[bool, float, NDArray[np.float64], dict[int, Hit]]:
         """Check the path as it will be executed at the validation resolution: (valid, corner
         deviation to execute it with, the first colliding state or an empty array, where each
@@ -503,7 +521,8 @@ class Planner:
         corners (the motion stops at each) if the whole segments are free.
         ``segments_checked``: the segments already were, at this resolution, as a repair
         does; only the arcs are checked. Where a segment collides is known whole, for a
-        repair (``_kernels._final_check``)."""
+        repair (``_kernels._final_check``). ``chunk``: the kernel's, as the checker's
+        (at most one chunk of states is checked in the calling thread)."""
 
         checked = PK.validate_path(
             np.ascontiguousarray(path, dtype=float),
@@ -512,7 +531,7 @@ class Planner:
             not segments_checked,
             checker.compiled_inputs,
             next_epoch(1 << 40),
-            CHUNK,
+            chunk,
         )
         return self._judge(checker, checked, segments_checked)
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import time
 import weakref
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -48,6 +49,14 @@ if TYPE_CHECKING:
 
 
 CHUNK = 64  # states per kernel task; a batch of at most one chunk runs in the calling thread
+# The kernel's threads sleep between parallel calls. Waking one took 210–230 µs when this
+# process had kept a core busy meanwhile, whatever the gap, but 5.7–7.8 ms once it had slept
+# for 50 ms or more (this 2-core VM's idle cores, it seems; medians, measured): more than a
+# whole plan. So after a rest (see threads_rested) a batch of up to REST_CHUNK states runs in
+# the calling thread, and the planner runs its searches one after the other (the same path)
+# and its final check in the calling thread too. Two threads classify 480–7680 states only
+# 1.3–1.6× as fast as one here.
+REST_CHUNK = 4096
 # scratch slots after the kernel's threads', for the planner's searches that run without the
 # GIL (robocell.planning.rrt): no other kernel call touches them
 SEARCH_SLOTS = 2
@@ -628,6 +637,20 @@ def skip_warm_up() -> None:
     _WARM[0] = True
 
 
+def threads_rested() -> bool:
+    """Whether this process mostly rested since the last call: its threads used less than
+    half of the time since as CPU time, so the kernel's sleeping threads are slow to wake
+    (see REST_CHUNK). A plan asks once at its start, a check of a batch of more than CHUNK
+    states once per batch."""
+    now, cpu = time.perf_counter(), time.process_time()
+    wall, used = now - _LAST_ASKED[0], cpu - _LAST_ASKED[1]
+    _LAST_ASKED[0], _LAST_ASKED[1] = now, cpu
+    return used < 0.5 * wall
+
+
+_LAST_ASKED = [0.0, 0.0]  # time.perf_counter and time.process_time at threads_rested's last call
+
+
 def next_epoch(n: int) -> int:
     """The first of n stamps no kernel call has used: the scratch below is shared by every
     checker of a robot, so stamps must be unique across them (kernels hold the GIL, so two
@@ -1195,7 +1218,8 @@ class CollisionChecker:
     ) -> tuple[NDArray[np.int8], NDArray[np.bool_]]:
         """classify on an already validated (N, dof) C-contiguous array."""
         epoch = next_epoch(q.shape[0])
-        if q.shape[0] <= CHUNK:
+        n = q.shape[0]
+        if n <= CHUNK or (n <= REST_CHUNK and threads_rested()):
             return K.classify_serial_in(q, self._inputs, epoch, pair_flags, False, 0)  # type: ignore[no-any-return]
         return K.classify_in(q, self._inputs, epoch, pair_flags, CHUNK)  # type: ignore[no-any-return]
 
