@@ -6,6 +6,7 @@ import pytest
 from robocell import PlanningScene, Pose
 from robocell.planning.rrt import (
     Edges,
+    Finish,
     Seeds,
     rrt_connect,
     rrt_connect_compiled,
@@ -252,9 +253,12 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
     assert winners == {0, 1}  # either seed won, in some problem
 
 
-def test_searches_one_after_the_other_find_the_same_path(walled):
+@pytest.mark.parametrize("tries", [0, 20])
+def test_searches_one_after_the_other_find_the_same_path(walled, tries):
     """Where numba's threads cannot run the searches side by side (its workqueue layer), they
-    run one after the other and the same search wins: the same path."""
+    run one after the other and the same search wins: the same path. Shortcut too (side by
+    side, a search shortcuts its path before it knows whether it won): the same shortcut
+    path, which is the shortcut of the winner's path."""
     arm = walled.robot.group("arm")
     checker = walled.checker(arm)
     warm_up(checker)
@@ -264,9 +268,16 @@ def test_searches_one_after_the_other_find_the_same_path(walled):
             path = rrt_connect_compiled(
                 Edges(checker, 0.05), START, GOAL[None], arm.lower, arm.upper,
                 np.random.default_rng(seed), 1e18, 0.5, side_by_side=side_by_side,
+                finish=Finish(1e18, tries),
             )  # fmt: skip
             paths.append(path)
         assert paths[0] is not None and np.array_equal(paths[0], paths[1])
+        if tries:
+            raw = rrt_connect_compiled(
+                Edges(checker, 0.05), START, GOAL[None], arm.lower, arm.upper,
+                np.random.default_rng(seed), 1e18, 0.5,
+            )  # fmt: skip
+            assert _length(paths[0]) < _length(raw)
 
 
 def test_compiled_clock_reads_perf_counter():

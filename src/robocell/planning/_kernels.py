@@ -292,50 +292,73 @@ def rrt_connect(
 @njit(cache=True, parallel=True, nogil=True)
 def rrt_connect_many(
     start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs, cap,
-    first_slot, box_lo, box_hi, p_box, whole_for,
+    first_slot, box_lo, box_hi, p_box, whole_for, finish,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`rrt_connect` once per seed of ``seeds``, side by side on the kernel's threads
     (search i on scratch slot ``first_slot + i``, from stamp ``epochs[i]``): each stops once
-    another has found a path with less work. Returns (paths (S, 2·cap, dof) of which path i
-    is the first ``lengths[i]`` rows, statuses (S,), stats (S, 5), found (S,): each search's
-    work when it found its path). Launching them here cost 10–20 µs instead of the 150–200 µs
-    of a Python thread's handoff (measured)."""
+    another has found a path with less work. A search that finds a path shortcuts it at once
+    on its own thread (``finish``: see :func:`_search_one`), before it knows whether it won.
+    Returns :func:`_search_outputs`. Launching them here cost 10–20 µs instead of the
+    150–200 µs of a Python thread's handoff (measured)."""
     out = _search_outputs(seeds.shape[0], cap, start.shape[0])
     for i in prange(seeds.shape[0]):
         # prange's index is unsigned: _search_one would be compiled anew for it
         _search_one(
             np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step, model,
-            scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, out,
+            scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, out,
         )  # fmt: skip
     return out
 
 
 @njit(cache=True)
 def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
-    """What n searches return (:func:`rrt_connect_many`): paths, lengths, statuses, stats and
-    the work each had done when it found its path."""
+    """What n searches return (:func:`rrt_connect_many`): paths (n, 2·cap, dof) of which path
+    i is the first ``lengths[i]`` rows, statuses, stats (n, 5), the work each had done when
+    it found its path, whether its path is shortcut already, and the states its shortcut
+    checked."""
     return (
         np.empty((n, 2 * cap, dof)),
         np.zeros(n, np.int64),
         np.full(n, NOT_FOUND, np.int64),
         np.zeros((n, 5), np.int64),
         np.full(n, np.iinfo(np.int64).max, np.int64),
+        np.zeros(n, np.bool_),
+        np.zeros(n, np.int64),
     )
 
 
 @njit(cache=True, nogil=True)
 def _search_one(
     i, start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs,
-    cap, first_slot, box_lo, box_hi, p_box, whole_for, out,
+    cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, out,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Search i of :func:`rrt_connect_many` (seed ``seeds[i]``, scratch slot
     ``first_slot + i``, stamps from ``epochs[i]``), its results written into ``out``
-    (:func:`_search_outputs`)."""
-    paths, lengths, statuses, stats, found = out
+    (:func:`_search_outputs`).
+
+    ``finish`` = (seed, deadline, tries, share, min_states, epoch): with tries > 0, a path
+    found is shortcut at once on this thread (:func:`shortcut` with these settings, stamps
+    from ``epoch + i·2**40 / n`` of n searches). A search that finds its path first used to
+    wait at the end of the race for the other to do as much work, 0.1–0.2 ms when the other's
+    thread was slow to wake; its shortcut now runs meanwhile. Whichever search wins, the path
+    is the same: the winner's shortcut, with the same seed."""
+    paths, lengths, statuses, stats, found, shortened, shortcut_states = out
     path, status, st = rrt_connect(
         start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
         epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
     )  # fmt: skip
+    seed, sc_deadline, tries, share, min_states, sc_epoch = finish
+    if status == FOUND and tries > 0:
+        budget = max(min_states, int(share * st[3]))
+        stride = (1 << 40) // seeds.shape[0]
+        short, sc = shortcut(
+            path, seed, sc_deadline, resolution, model, scratch, sc_epoch + i * stride, tries,
+            budget, first_slot + i,
+        )  # fmt: skip
+        if short.shape[0] <= paths.shape[1]:
+            path = short
+            shortened[i] = True
+            shortcut_states[i] = sc[3]
     lengths[i] = path.shape[0]
     paths[i, : path.shape[0]] = path
     statuses[i] = status
@@ -491,9 +514,11 @@ def plan_in(
     more work than an earlier one that found a path, so that the same one wins), search i on
     scratch slot ``first_slot + i`` from stamp ``epoch + i·2**40``. Samples come from the box
     around the start and the goals grown by ``box_margin`` with probability ``p_box``; edges
-    are added whole for the first ``whole_for`` iterations, then as far as free. The
-    shortcut runs on the first search's slot too (from stamp ``epoch + n·2**40``, n
-    searches), so the call needs no GIL.
+    are added whole for the first ``whole_for`` iterations, then as far as free. Side by
+    side, each search that finds a path shortcuts it at once on its own thread and slot
+    (:func:`_search_one`); one after the other, the winner's path is shortcut once known, on
+    the first search's slot. The shortcuts' stamps start at ``epoch + n·2**40`` (n searches),
+    and the call needs no GIL.
 
     Returns the path (the winner's, or search 0's if none found one), the search's status
     and stats (:func:`rrt_connect`), and the states the shortcut checked. The final check is
@@ -519,26 +544,34 @@ def plan_in(
     epochs = np.empty(n, np.int64)
     for i in range(n):
         epochs[i] = epoch + (i << 40)
+    finish = (
+        shortcut_seed, shortcut_deadline, shortcut_tries, shortcut_share, shortcut_min,
+        epoch + (n << 40),
+    )  # fmt: skip
     if side_by_side:
         out = rrt_connect_many(
             start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch,
-            epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for,
+            epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish,
         )  # fmt: skip
     else:
+        # one after the other, the shortcut once the winner is known (a search that found a
+        # path may yet lose to a later one)
+        finish = (shortcut_seed, shortcut_deadline, 0, shortcut_share, shortcut_min, 0)
         out = _search_outputs(n, cap, dof)
         for i in range(n):
             _search_one(
                 np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step,
-                model, scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, out,
+                model, scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for,
+                finish, out,
             )  # fmt: skip
-    paths, lengths, statuses, stats, found = out
+    paths, lengths, statuses, stats, found, shortened, shortcut_done = out
     best = 0
     for i in range(n):
         if statuses[i] == FOUND and (statuses[best] != FOUND or found[i] < found[best]):
             best = i
     path = paths[best, : lengths[best]].copy()
-    shortcut_states = 0
-    if statuses[best] == FOUND and shortcut_tries > 0:
+    shortcut_states = shortcut_done[best]
+    if statuses[best] == FOUND and shortcut_tries > 0 and not shortened[best]:
         budget = max(shortcut_min, int(shortcut_share * stats[best, 3]))
         path, st = shortcut(
             path, shortcut_seed, shortcut_deadline, resolution, model, scratch, epoch + (n << 40),
