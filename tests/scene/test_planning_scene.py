@@ -304,6 +304,56 @@ def test_checker_sees_scene_changes(scene, irb120):
     assert not scene.in_collision(q, arm)
 
 
+def test_checkers_alive_at_once_never_share_merge_buffers(irb120):
+    """A checker's packed bodies (links, the gripper's cluster union, the held object) are
+    written into buffers recycled from checkers no longer alive, where the links' arrays are
+    already: checkers alive at the same time keep theirs, and a recycled merge checks states
+    exactly as the first one did."""
+    import gc
+
+    from robocell.scene import checker as checker_module
+
+    arm = irb120.group("arm")
+    q = np.array([0.0, 0.4, 0.3, 0.0, 0.87, 0.0])  # tool pointing down
+    T_tcp = fk(arm, q, "tcp")
+    qs = q + np.random.default_rng(7).uniform(-0.6, 0.6, (300, arm.dof))
+
+    def holding(length):
+        """A checker of the arm holding a bar of ``length`` [m] down from the TCP, above a
+        table that a long bar hits."""
+        s = PlanningScene(irb120)
+        s.set_joint_positions("arm", q)
+        T_bar = T_tcp @ Pose.from_rpy(length / 2, 0, 0, 0, np.pi / 2, 0).matrix()
+        s.add_cylinder("bar", Pose.from_matrix(T_bar), 0.01, length)
+        s.attach_object("bar", "tool0")
+        s.add_box("table", Pose((0.45, 0.0, T_tcp[2, 3] - 0.35)), (0.5, 0.6, 0.1))
+        return s.checker(arm)
+
+    def arrays(checker):
+        return [a.copy() for a in checker.kernel_inputs()[0] if isinstance(a, np.ndarray)]
+
+    checker_module._MERGED.clear()  # else a merge with the same key is shared, not made
+    short = holding(0.05)
+    short_hits, short_arrays = short.check(qs), arrays(short)
+    buffer = short._packed.nodes.base  # the pool's array the nodes are a view of
+    assert buffer is not None
+    long = holding(0.3)  # while the short bar's checker is alive
+    long_hits = long.check(qs)
+    assert long_hits.sum() > short_hits.sum()  # the long bar hits the table where the short
+    assert not np.shares_memory(long._packed.nodes, short._packed.nodes)
+    assert all(np.array_equal(a, b) for a, b in zip(arrays(short), short_arrays, strict=True))
+    assert np.array_equal(short.check(qs), short_hits)
+    # once the short bar's checker is gone, a checker holding it again takes its buffers
+    del short
+    checker_module._MERGED.clear()
+    gc.collect()
+    again = holding(0.05)
+    assert again._packed.nodes.base is buffer
+    assert all(np.array_equal(a, b) for a, b in zip(arrays(again), short_arrays, strict=True))
+    assert np.array_equal(again.check(qs), short_hits)
+    assert np.array_equal(long.check(qs), long_hits)
+
+
 def test_without_padding_is_one_copy_while_the_scene_stays_as_it_is(scene, irb120):
     arm = irb120.group("arm")
     q = np.array([0.0, 0.5, 0.0, 0.0, 0.5, 0.0])
