@@ -172,6 +172,11 @@ class Pose:
         return pose
 
     @classmethod
+    def _of_matrix(cls, T: FloatArray) -> Pose:
+        """:meth:`from_matrix` of a 4×4 transform known finite and rigid."""
+        return cls._of(T[:3, 3].copy(), matrix_to_quat(T[:3, :3]))
+
+    @classmethod
     def from_rpy(
         cls, x: float, y: float, z: float, roll: float = 0.0, pitch: float = 0.0, yaw: float = 0.0
     ) -> Pose:
@@ -192,7 +197,7 @@ class Pose:
         m = np.asarray(T, dtype=float)
         if m.shape != (4, 4) or not np.isfinite(m).all():
             raise GeometryError(f"a transform must be a finite 4x4 matrix, got shape {m.shape}")
-        return cls._of(m[:3, 3].copy(), matrix_to_quat(m[:3, :3]))
+        return cls._of_matrix(m)
 
     @classmethod
     def from_any(cls, value: Any) -> Pose:
@@ -221,6 +226,10 @@ class Pose:
 
     def matrix(self) -> FloatArray:
         """The 4×4 homogeneous transform (a new array each call)."""
+        return self._transform().copy()
+
+    def _transform(self) -> FloatArray:
+        """The 4×4 homogeneous transform, computed once and shared: not to be changed."""
         T = self.__dict__.get("_matrix")
         if T is None:
             # the orientation is a unit quaternion already (checked when the pose was made)
@@ -235,7 +244,7 @@ class Pose:
             )
             T[:3, 3] = self.position
             object.__setattr__(self, "_matrix", T)  # poses are immutable: computed once
-        return T.copy()
+        return T  # type: ignore[no-any-return]
 
     def rotation(self) -> FloatArray:
         """The 3×3 rotation matrix."""
@@ -250,18 +259,13 @@ class Pose:
         return np.degrees(self.rpy())
 
     def inverse(self) -> Pose:
-        return Pose.from_matrix(invert_transform(self.matrix()))
+        return Pose._of_matrix(invert_transform(self._transform()))
 
     def __mul__(self, other: Pose) -> Pose:
         if not isinstance(other, Pose):
             return NotImplemented
-        T = self.__dict__.get("_matrix")
-        T = self.matrix() if T is None else T  # read, not changed: no copy needed
-        U = other.__dict__.get("_matrix")
-        U = other.matrix() if U is None else U
-        # the product of two poses is one: its rotation's quaternion is unit (matrix_to_quat)
-        TU = T @ U
-        return Pose._of(TU[:3, 3].copy(), matrix_to_quat(TU[:3, :3]))
+        # the product of two poses is finite and rigid
+        return Pose._of_matrix(self._transform() @ other._transform())
 
     def isclose(self, other: Pose, atol: float = 1e-9, rot_atol: float = 1e-9) -> bool:
         """Same position within ``atol`` [m] and orientation within ``rot_atol`` [rad]."""

@@ -401,7 +401,7 @@ def _merge(a: Packed, b: Packed) -> Packed:
     ta, tb = a.triangles, b.triangles  # mesh, node_tri_start, node_tri_ids, tri_V, tri_sphere
     n_values, n_prims = len(fa[6]), int(fa[7][-1])
     n_ids, n_tris = int(ta[1][-1]), len(ta[3])
-    # the tails behind a's arrays, in _MergeBuffers.PARTS' order
+    # the tails behind a's arrays, in _heads' order
     tails = (
         b.nodes,
         np.where(b.left >= 0, b.left + m, -1),
@@ -448,14 +448,10 @@ def _merge(a: Packed, b: Packed) -> Packed:
 class _MergeBuffers:
     """Buffers for merges of one robot's packed links (``a`` of :func:`_merge`) with extra
     bodies: each part's array holds a's part first, then room for an extra bodies' part.
-    Recycled through :data:`_MERGE_POOL`."""
-
-    # the parts indexed by node, grid value or triangle: nodes, left, right, values,
-    # node_tri_start, node_tri_ids, tri_V, tri_sphere
-    PARTS = 8
+    Recycled through :data:`_MERGE_POOL`; the parts are :func:`_heads`'."""
 
     def __init__(self, a: Packed, tails: tuple[NDArray[Any], ...]) -> None:
-        self.a = a  # kept alive: the pool knows the buffers of an ``a`` by its id
+        self.a = a  # the buffers serve merges of this very ``a`` only (fits)
         self.arrays: list[NDArray[Any]] = []
         for head, tail in zip(_heads(a), tails, strict=True):
             # room for a bigger held object or cluster than this one, 50 % more
@@ -481,7 +477,8 @@ class _MergeBuffers:
 
 
 def _heads(a: Packed) -> tuple[NDArray[Any], ...]:
-    """a's parts of a merge's node, grid value and triangle arrays (_MergeBuffers.PARTS)."""
+    """a's parts of a merge's arrays indexed by node, grid value or triangle: nodes, left,
+    right, values, node_tri_start (without its last entry), node_tri_ids, tri_V, tri_sphere."""
     f, t = a.fields, a.triangles
     return (a.nodes, a.left, a.right, f[6], t[1][:-1], t[2], t[3], t[4])
 
@@ -502,11 +499,7 @@ class _MergePool:
         """The views of :meth:`_MergeBuffers.views`, then the buffers (the lease to give
         back)."""
         with self._lock:
-            found = None
-            for x in reversed(list(self._free)):
-                if x.fits(a, tails):
-                    found = x
-                    break
+            found = next((x for x in reversed(list(self._free)) if x.fits(a, tails)), None)
             if found is not None and found in self._free:
                 self._free.remove(found)  # (else dropped meanwhile: free all the same)
         buffers = found if found is not None else _MergeBuffers(a, tails)
