@@ -1,5 +1,7 @@
 """Time parameterization: limits hold at every sample, rest to rest, the path is kept."""
 
+import logging
+
 import numpy as np
 import pytest
 
@@ -41,6 +43,16 @@ def test_time_optimal_is_tight(arm, path):
         np.max(np.abs(s.accelerations) / arm.acceleration, axis=1),
     )
     assert np.mean(at_limit > 0.95) > 0.8
+
+
+def test_repeated_calls_add_no_log_handlers(arm, path):
+    """toppra's setup_logging added a handler per call (thousands in a sorting run, each
+    warning printed once per handler); the limits' constraints are made once."""
+    time_optimal(arm, path)
+    before = len(logging.getLogger("toppra").handlers)
+    for k in range(3):
+        time_optimal(arm, path * (1.0 - 0.1 * k), velocity_scaling=1.0 - 0.2 * k)
+    assert len(logging.getLogger("toppra").handlers) == before
 
 
 def test_rounded_corners_are_faster_than_stops(arm, path):
