@@ -354,6 +354,36 @@ def test_checkers_alive_at_once_never_share_merge_buffers(irb120):
     assert np.array_equal(long.check(qs), long_hits)
 
 
+def test_gripper_union_serves_openings_micrometres_apart(irb120):
+    """The gripper's cluster union is made once for openings that move its links by less than
+    its margin (physics syncs them micrometres apart), anew for another opening; answers near
+    the gripper's contact with a box are coal's either way."""
+    from robocell.scene import checker as checker_module
+
+    arm = irb120.group("arm")
+    q = np.array([0.0, 0.4, 0.3, 0.0, 0.87, 0.0])
+    T_tcp = fk(arm, q, "tcp")
+    qs = q + np.random.default_rng(11).uniform(-0.25, 0.25, (400, arm.dof))
+
+    def checker(opening):
+        s = PlanningScene(irb120)
+        s.set_joint_positions("arm", q)
+        s.set_joint_positions("gripper", [opening])
+        T_block = T_tcp @ Pose((0.0, 0.0, 0.06)).matrix()
+        s.add_box("block", Pose.from_matrix(T_block), (0.1, 0.1, 0.04))
+        return s.checker(arm)
+
+    a, b, c = checker(0.3), checker(0.3 + 1e-6), checker(0.5)
+    assert a._union_keys and a._union_keys == b._union_keys  # the same union serves both
+    assert c._union_keys != a._union_keys
+    for ch in (a, b, c):
+        hits = ch.check(qs)
+        assert 0.05 < hits.mean() < 0.95  # the states reach into the box and out of it
+        assert np.array_equal(hits, ch.check_exact(qs))
+    assert not np.array_equal(a.check(qs), c.check(qs))  # another opening, other answers
+    assert checker_module.UNION_MARGIN > 0
+
+
 def test_without_padding_is_one_copy_while_the_scene_stays_as_it_is(scene, irb120):
     arm = irb120.group("arm")
     q = np.array([0.0, 0.5, 0.0, 0.0, 0.5, 0.0])

@@ -62,6 +62,7 @@ REST_CHUNK = 4096
 # GIL (robocell.planning.rrt): no other kernel call touches them
 SEARCH_SLOTS = 2
 UNION_INNER = 32  # inner spheres of a rigid cluster's union body (the first pass's hit test)
+UNION_MARGIN = 1e-4  # [m] a cluster union's spheres are grown by (_RobotTables.union)
 
 
 @lru_cache(maxsize=4)
@@ -544,15 +545,25 @@ def _shapes_key(shapes: list[tuple[Shape, NDArray[np.float64]]]) -> str:
     return h.hexdigest()
 
 
+def _moved_by(tree: SphereTree, A: NDArray[np.float64], B: NDArray[np.float64]) -> float:
+    """A bound on how far a point of ``tree`` (within its root sphere) moves from pose A to
+    pose B: |(R_B − R_A) p + t_B − t_A| ≤ ‖R_B − R_A‖_F |p| + |t_B − t_A|."""
+    c, r = tree.nodes[0, :3], tree.nodes[0, 3]
+    dR = float(np.linalg.norm(B[:3, :3] - A[:3, :3]))
+    return dR * (float(np.linalg.norm(c)) + r) + float(np.linalg.norm(B[:3, 3] - A[:3, 3]))
+
+
 def _union_tree(
-    trees: list[SphereTree], T_union_member: list[NDArray[np.float64]]
+    trees: list[SphereTree], T_union_member: list[NDArray[np.float64]], margin: float = 0.0
 ) -> tuple[SphereTree, NDArray[np.int64]]:
     """The union of members' sphere trees placed at ``T_union_member``: a small tree over the
     members' root spheres whose leaves are the members' own trees (no rebuild: a checker is
     built per gripper opening, and rebuilding a UR5 hand's tree took 20 ms), the biggest of
-    their inner spheres, and each node's members as bits."""
+    their inner spheres, and each node's members as bits. ``margin`` [m]: the spheres grown
+    and the inner spheres shrunk by it, so that the union stays sound for members moved by
+    up to that much (:meth:`_RobotTables.union`)."""
     parts = [
-        np.c_[t.nodes[:, :3] @ T[:3, :3].T + T[:3, 3], t.nodes[:, 3]]
+        np.c_[t.nodes[:, :3] @ T[:3, :3].T + T[:3, 3], t.nodes[:, 3] + margin]
         for t, T in zip(trees, T_union_member, strict=True)
     ]
     top, top_left, top_right, top_leaf_of = build_tree(np.array([P[0] for P in parts]))
@@ -580,6 +591,8 @@ def _union_tree(
             for t, T in zip(trees, T_union_member, strict=True)
         ]
     )
+    inner[:, 3] -= margin
+    inner = inner[inner[:, 3] > 0]
     inner = inner[np.argsort(-inner[:, 3], kind="stable")[:UNION_INNER]]
     nodes = np.vstack([top, *parts])
     tree = SphereTree(
@@ -690,16 +703,36 @@ class _RobotTables:
     chains: dict[tuple[Any, ...], Chain | None] = field(default_factory=dict)
     tables: dict[tuple[Any, ...], PairTable] = field(default_factory=dict)
     packed: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = field(default_factory=dict)
-    unions: dict[tuple[Any, ...], tuple[SphereTree, NDArray[np.int64]]] = field(
-        default_factory=dict
+    # cluster unions: (key, the members' poses (M, 4, 4), union tree, members' bits)
+    unions: list[tuple[tuple[Any, ...], NDArray[np.float64], SphereTree, NDArray[np.int64]]] = (
+        field(default_factory=list)
     )
 
     KEEP = 16
 
-    def keep_union(self, key: tuple[Any, ...], union: tuple[SphereTree, NDArray[np.int64]]) -> None:
-        self.unions[key] = union
-        while len(self.unions) > 8:
-            self.unions.pop(next(iter(self.unions)))
+    def union(
+        self, names: tuple[str, ...], trees: list[SphereTree], Ts: NDArray[np.float64]
+    ) -> tuple[tuple[Any, ...], SphereTree, NDArray[np.int64]]:
+        """The union body of cluster members ``names`` (their trees, at poses ``Ts`` (M, 4, 4) in
+        the union's frame): its key, tree and members' bits (:func:`_union_tree`). A union made
+        for poses that move no point of a member's tree by more than UNION_MARGIN serves (it
+        is grown by that margin): a gripper's opening synced from physics differs between
+        checkers by micrometres (1e-6 to 5e-6 of its transforms in the sorting demo), and
+        a new union, its merge with the links and its pair tables cost 3–4 ms of a 6 ms
+        build."""
+        for i, (key, cached, tree, bits) in enumerate(self.unions):
+            if key[1] == names and all(
+                _moved_by(t, A, B) <= UNION_MARGIN
+                for t, A, B in zip(trees, cached, Ts, strict=True)
+            ):
+                self.unions.append(self.unions.pop(i))  # the most recently used last
+                return key, tree, bits
+        Ts = np.round(Ts, 12)
+        key = ("union", names, tuple(T.tobytes() for T in Ts))
+        tree, bits = _union_tree(trees, list(Ts), UNION_MARGIN)
+        self.unions.append((key, Ts, tree, bits))
+        del self.unions[:-8]
+        return key, tree, bits
 
     def keep(self, key: tuple[Any, ...], arrays: tuple[NDArray[Any], ...]) -> None:
         self.packed[key] = arrays
@@ -963,18 +996,18 @@ class CollisionChecker:
         for members in self._unions:
             rep = self.bodies[members[0]].link
             T_rep_world = invert_transform(T_link[robot.link_index(rep)])
-            parts = []
-            for m in members:
-                b = self.bodies[m]
-                T = T_rep_world @ T_link[robot.link_index(b.link)] @ b.T_link_body
-                parts.append((b.name, np.round(T, 12)))
-            key = ("union", tuple((n, T.tobytes()) for n, T in parts))
-            if key not in cache.unions:
-                cache.keep_union(
-                    key,
-                    _union_tree([self.bodies[m].spheres for m in members], [T for _, T in parts]),
-                )
-            tree, bits = cache.unions[key]
+            Ts = np.array(
+                [
+                    T_rep_world @ T_link[robot.link_index(self.bodies[m].link)]
+                    @ self.bodies[m].T_link_body
+                    for m in members
+                ]
+            )  # fmt: skip
+            key, tree, bits = cache.union(
+                tuple(self.bodies[m].name for m in members),
+                [self.bodies[m].spheres for m in members],
+                Ts,
+            )
             self._union_keys.append(key)
             out.append(Body(f"<cluster of {rep}>", rep, np.eye(4), tree, True, []))
             self._union_bits.append(bits)
@@ -1018,12 +1051,10 @@ class CollisionChecker:
         packed = robot_packed
         extra = unions + bodies[n_robot:]
         if extra:
-            # held objects by their shapes and where they are held (place candidates are
-            # checked one checker each, all holding the same object)
-            held = tuple(
-                (b.name, b.link, np.round(b.T_link_body, 12).tobytes(), _shapes_key(b.shapes))
-                for b in bodies[n_robot:]
-            )
+            # held objects by their shapes (place candidates are checked one checker each,
+            # all holding the same object); not by where they are held, which is the
+            # checker's (body_T), not the merge's: synced from physics, it differs each time
+            held = tuple((b.name, b.link, _shapes_key(b.shapes)) for b in bodies[n_robot:])
             key = (id(robot_packed), names, tuple(self._union_keys), held)
             hit = _MERGED.get(key)
             if hit is None:
@@ -1172,7 +1203,11 @@ class CollisionChecker:
             chain = chain_of(x.name, rep, 3)
             if chain is None or chain.upper != robot.link_index(x.name):
                 continue
-            parts = self._union_keys[g.union][1]
+            # the members with their poses, for the table's key; the margin too (the table
+            # is built on the union's spheres)
+            _, names, poses = self._union_keys[g.union]
+            margin = np.float64(UNION_MARGIN).tobytes()
+            parts = tuple((n, T + margin) for n, T in zip(names, poses, strict=True))
             key = (chain.upper, chain.lower, chain.variables, tuple(base[list(chain.fixed)]))
             wanted.append((n_pairs + gi, chain, g.body, n_robot + g.union, key + parts, parts))
         out_key = (n_pairs, tuple((k, key) for k, _, _, _, key, _ in wanted))
