@@ -216,3 +216,24 @@ def test_a_line_followed_in_one_call_is_the_line_solved_step_by_step(request, ro
             assert np.allclose(end[:3, 3], T[:3, 3] + offset, atol=1e-6)
         stopped += not ok
     assert 0 < stopped < 40  # both outcomes were exercised
+
+
+@pytest.mark.parametrize("robot_name", ["irb120", "ur5e"])
+def test_many_targets_in_one_call_are_each_target_solved_alone(request, robot_name):
+    """AnalyticIK.solve_many: each target's solutions, nearest the seed first, exactly as
+    solve_ik gives them one target at a time; a target out of reach has none; NaN is refused."""
+    robot = request.getfixturevalue(robot_name)
+    arm = robot.group(robot.group_names[0])
+    solver = ik_solver(arm)
+    assert isinstance(solver, AnalyticIK)
+    rng = np.random.default_rng(5)
+    seed = arm.random(rng) * 0.5
+    targets = [fk(arm, arm.random(rng), relative_to=arm.base_link) for _ in range(60)]
+    targets[7] = Pose((3.0, 0.0, 0.5)).matrix()  # out of reach
+    sols, counts = solver.solve_many(np.array(targets), seed)
+    assert counts[7] == 0 and counts.sum() == len(sols) and (counts > 0).sum() >= 55
+    alone = [solve_ik(arm, T, seed=seed).solutions for T in targets]
+    assert [len(a) for a in alone] == counts.tolist()
+    assert np.array_equal(sols, np.vstack(alone))
+    with pytest.raises(IKError, match="NaN"):
+        solver.solve_many(np.full((2, 4, 4), np.nan), seed)

@@ -33,7 +33,7 @@ from robocell.grasping.grasp import (
     Push,
     up_and_back,
 )
-from robocell.kinematics.ik import AnalyticIK, NumericIK, ik_solver, solve_ik
+from robocell.kinematics.ik import AnalyticIK, ik_solver, solve_ik
 from robocell.robot.model import JointGroup
 from robocell.scene.checker import CollisionChecker
 from robocell.scene.planning_scene import PlanningScene
@@ -332,17 +332,21 @@ def _free_ik(
     An analytic solver gives every solution: all of them, for all targets, are checked in one
     batch; a numeric one checks inside, retrying until a collision-free one."""
     checker = scene.checker(group)
-    inner = None if _analytic(group, tip_link) else checker
-    owner: list[int] = []
-    solutions = []
-    for i, T in enumerate(targets):
-        res = solve_ik(group, T, seed=seed, checker=inner, tip_link=tip_link, timeout=0.02)
-        solutions.append(res.solutions)  # nearest the seed first
-        owner += [i] * len(res.solutions)
     out: list[NDArray[np.float64] | None] = [None] * len(targets)
-    if not owner:
+    solver = ik_solver(group, tip_link)
+    if isinstance(solver, AnalyticIK):
+        # every solution of every target (nearest the seed first) in one compiled call
+        Q, counts = solver.solve_many(np.array(targets).reshape(-1, 4, 4), seed)
+        owner = np.repeat(np.arange(len(targets)), counts)
+    else:
+        found = []
+        for T in targets:
+            res = solve_ik(group, T, seed=seed, checker=checker, tip_link=tip_link, timeout=0.02)
+            found.append(res.solutions)  # collision-free already, nearest the seed first
+        owner = np.repeat(np.arange(len(targets)), [len(f) for f in found])
+        Q = np.vstack(found) if len(owner) else np.empty((0, group.dof))
+    if not len(owner):
         return out
-    Q = np.vstack(solutions)
     for row in np.flatnonzero(~checker.check(Q)):
         if out[owner[row]] is None:
             out[owner[row]] = Q[row]
@@ -660,11 +664,6 @@ def _lines_ok(
     T_end = T_start.copy()
     T_end[:3, 3] += along
     return _line_ok(group, tip_link, T_end, end, lift) is not None
-
-
-def _analytic(group: JointGroup, tip_link: str) -> bool:
-    """Whether IK for this group and tip gives every solution (a closed form)."""
-    return not isinstance(ik_solver(group, tip_link), NumericIK)
 
 
 def _rz(a: float) -> NDArray[np.float64]:

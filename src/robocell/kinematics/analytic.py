@@ -427,6 +427,32 @@ def solve_ordered(
 
 
 @njit(cache=True)
+def solve_ordered_many(
+    kind, p, Ts, T_canon_base, T_tip_flange, seed, signs, offsets, lower, upper, wrist_index,
+    tol,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """:func:`solve_ordered` for each target of ``Ts`` (N, 4, 4): the solutions of them all
+    (S, 6), target after target, and how many each has (N,)."""
+    n = Ts.shape[0]
+    counts = np.zeros(n, np.int64)
+    out = np.empty((max(8 * n, 1), 6))
+    m = 0
+    for k in range(n):
+        sols = solve_ordered(
+            kind, p, Ts[k], T_canon_base, T_tip_flange, seed, signs, offsets, lower, upper,
+            wrist_index, tol,
+        )  # fmt: skip
+        if m + sols.shape[0] > out.shape[0]:
+            grown = np.empty((2 * out.shape[0] + sols.shape[0], 6))
+            grown[:m] = out[:m]
+            out = grown
+        out[m : m + sols.shape[0]] = sols
+        m += sols.shape[0]
+        counts[k] = sols.shape[0]
+    return out[:m].copy(), counts
+
+
+@njit(cache=True)
 def follow_line(
     kind, p, T_start, offset, n, q, T_canon_base, T_tip_flange, signs, offsets, lower, upper,
     wrist_index, tol, max_jump,

@@ -189,6 +189,33 @@ class AnalyticIK:
         )
         return IKResult(sols, self.name, reason, 1)
 
+    def solve_many(
+        self, Ts: NDArray[np.float64], seed: NDArray[np.float64] | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """:meth:`solve` for each of the targets ``Ts`` (N, 4, 4), base frame, valid already, in
+        one compiled call: the solutions of them all (S, 6), each target's nearest the seed
+        first, target after target, and how many each has (N,). Grasp and place candidates
+        ask hundreds at once: one call each cost 43 µs, 20 of them outside the solver."""
+        g = self.group
+        seed_q = g.default_positions if seed is None else seed
+        Ts = np.ascontiguousarray(Ts, dtype=np.float64).reshape(-1, 4, 4)
+        if not math.isfinite(float(Ts.sum())):
+            raise IKError("an IK target contains NaN or infinity")
+        return A.solve_ordered_many(  # type: ignore[no-any-return]
+            self.kind,
+            self._p,
+            Ts,
+            self._T_canon_base,
+            self._T_tip_flange,
+            np.asarray(seed_q, dtype=np.float64),
+            self._signs,
+            self._offsets,
+            g.lower,
+            g.upper,
+            self._wrist,
+            _CLOSED_FORM_TOL,
+        )
+
     def follow_line(
         self,
         T_start: NDArray[np.float64],
@@ -366,10 +393,12 @@ def solve_ik(
     """
     T = as_target(T_base_tip)
     seed_q = None if seed is None else group.as_joint_vector(seed, "IK seed")
-    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     solver = ik_solver(group, tip_link)
     want_free = checker is not None and collision_free
     if isinstance(solver, NumericIK):
+        # made here only: the closed form needs none, and a generator seeded from the OS
+        # cost 10 of a call's 43 µs
+        gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         n_wanted = max(1, max_solutions)
         result = solver.solve(T, seed_q, gen, timeout, n_wanted)
         if want_free and result.success:
@@ -396,7 +425,7 @@ def solve_ik(
                 result.attempts,
             )
         return result
-    result = solver.solve(T, seed_q, gen, timeout, 0)
+    result = solver.solve(T, seed_q, None, timeout, 0)
     sols = result.solutions
     if want_free and len(sols):
         assert checker is not None
