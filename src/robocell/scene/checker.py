@@ -1213,9 +1213,9 @@ class CollisionChecker:
             # is built on the union's spheres)
             _, names, poses = self._union_keys[g.union]
             margin = np.float64(UNION_MARGIN).tobytes()
-            parts = tuple((n, T + margin) for n, T in zip(names, poses, strict=True))
+            placed = tuple((n, T + margin) for n, T in zip(names, poses, strict=True))
             key = (chain.upper, chain.lower, chain.variables, tuple(base[list(chain.fixed)]))
-            wanted.append((n_pairs + gi, chain, g.body, n_robot + g.union, key + parts, parts))
+            wanted.append((n_pairs + gi, chain, g.body, n_robot + g.union, key + placed, placed))
         out_key = (n_pairs, tuple((k, key) for k, _, _, _, key, _ in wanted))
         if out_key in cache.packed:
             return cache.packed[out_key]
