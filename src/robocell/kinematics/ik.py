@@ -164,22 +164,7 @@ class AnalyticIK:
     ) -> IKResult:
         """Every solution within limits, nearest the seed first (``max_solutions`` > 0 keeps
         only that many). ``rng`` and ``timeout`` are unused: the answer is immediate."""
-        g = self.group
-        seed_q = g.default_positions if seed is None else seed
-        sols = A.solve_ordered(
-            self.kind,
-            self._p,
-            T_base_tip,
-            self._T_canon_base,
-            self._T_tip_flange,
-            seed_q,
-            self._signs,
-            self._offsets,
-            g.lower,
-            g.upper,
-            self._wrist,
-            _CLOSED_FORM_TOL,
-        )
+        sols = A.solve_ordered(self.kind, self._p, T_base_tip, *self._solve_args(seed))
         if max_solutions > 0:
             sols = sols[:max_solutions]
         reason = (
@@ -196,18 +181,19 @@ class AnalyticIK:
         one compiled call: the solutions of them all (S, 6), each target's nearest the seed
         first, target after target, and how many each has (N,). Grasp and place candidates
         ask hundreds at once: one call each cost 43 µs, 20 of them outside the solver."""
-        g = self.group
-        seed_q = g.default_positions if seed is None else seed
         Ts = np.ascontiguousarray(Ts, dtype=np.float64).reshape(-1, 4, 4)
         if not math.isfinite(float(Ts.sum())):
             raise IKError("an IK target contains NaN or infinity")
-        return A.solve_ordered_many(  # type: ignore[no-any-return]
-            self.kind,
-            self._p,
-            Ts,
+        return A.solve_ordered_many(self.kind, self._p, Ts, *self._solve_args(seed))  # type: ignore[no-any-return]
+
+    def _solve_args(self, seed: NDArray[np.float64] | None) -> tuple[Any, ...]:
+        """The closed-form solvers' arguments after the target (A.solve_ordered's)."""
+        g = self.group
+        seed_q = np.asarray(g.default_positions if seed is None else seed, dtype=np.float64)
+        return (
             self._T_canon_base,
             self._T_tip_flange,
-            np.asarray(seed_q, dtype=np.float64),
+            seed_q,
             self._signs,
             self._offsets,
             g.lower,
