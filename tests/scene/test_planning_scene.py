@@ -384,6 +384,43 @@ def test_gripper_union_serves_openings_micrometres_apart(irb120):
     assert checker_module.UNION_MARGIN > 0
 
 
+def test_models_of_the_same_robot_share_its_collision_model():
+    """Two models loaded from the same files (a cell per layout) share the links' sphere
+    trees, distance fields and packed arrays, and check states alike; a model whose collision
+    geometry differs does not share them; models dropped are not kept by what they share."""
+    import gc
+    import weakref
+
+    from robocell import RobotModel
+    from robocell.scene import checker as checker_module
+
+    a, b = RobotModel.load("irb120_robotiq85"), RobotModel.load("irb120_robotiq85")
+    assert a is not b
+    assert checker_module.robot_spheres(a) is checker_module.robot_spheres(b)
+    assert checker_module.robot_grids(a) is checker_module.robot_grids(b)
+    arm_a, arm_b = a.group("arm"), b.group("arm")
+    qs = arm_a.random(np.random.default_rng(9), 500)
+    scenes = [PlanningScene(r) for r in (a, b)]
+    for scene in scenes:
+        scene.add_box("table", Pose((0.45, 0.0, 0.1)), (0.4, 0.6, 0.2))
+    ca, cb = scenes[0].checker(arm_a), scenes[1].checker(arm_b)
+    names = tuple(checker_module.robot_spheres(a))
+    assert checker_module._robot_pack(a, names) is checker_module._robot_pack(b, names)
+    assert np.array_equal(ca.check(qs), cb.check(qs))
+    assert np.array_equal(cb.check(qs), cb.check_exact(qs))
+    other = RobotModel.load("ur5e_gripper")
+    assert checker_module.geometry_key(other) != checker_module.geometry_key(a)
+    del b, arm_b, cb, scenes, scene
+    loaded = []
+    for _ in range(8):  # models dropped after use are not kept by what they share
+        r = RobotModel.load("irb120_robotiq85")
+        PlanningScene(r).checker(r.group("arm")).check(qs[:5])
+        loaded.append(weakref.ref(r))
+    del r
+    gc.collect()
+    assert sum(x() is not None for x in loaded) <= 4  # what the per-robot caches may keep
+
+
 def test_without_padding_is_one_copy_while_the_scene_stays_as_it_is(scene, irb120):
     arm = irb120.group("arm")
     q = np.array([0.0, 0.5, 0.0, 0.0, 0.5, 0.0])

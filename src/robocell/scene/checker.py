@@ -19,8 +19,8 @@ import math
 import threading
 import time
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 import numba
@@ -65,21 +65,62 @@ UNION_INNER = 32  # inner spheres of a rigid cluster's union body (the first pas
 UNION_MARGIN = 1e-4  # [m] a cluster union's spheres are grown by (_RobotTables.union)
 
 
-@lru_cache(maxsize=4)
+def geometry_key(robot: RobotModel) -> str:
+    """A digest of the robot's collision geometry (links, shapes, their poses, in order): what
+    its links' sphere trees, distance fields and packed arrays are made from, so that every
+    model of the same robot shares them. A process that loads a cell per layout made them
+    again for each (a third of a 0.4 s ``Cell.load``), and kept each model's until the
+    garbage collector freed the model. Computed once per model."""
+    key = _GEOMETRY_KEYS.get(robot)
+    if key is None:
+        h = hashlib.sha1(b"robot geometry")
+        for g in robot.collision_geometry:
+            h.update(g.link.encode() + b"\0")
+            h.update(_shape_key(g.shape))
+            h.update(np.round(np.asarray(g.T_link_shape, float), 12).tobytes())
+        key = _GEOMETRY_KEYS[robot] = h.hexdigest()
+    return key
+
+
+_GEOMETRY_KEYS: weakref.WeakKeyDictionary[RobotModel, str] = weakref.WeakKeyDictionary()
+
+
 def robot_spheres(robot: RobotModel) -> dict[str, SphereTree]:
-    """The sphere tree of every link with collision geometry, in the link's frame."""
-    by_link: dict[str, list[tuple[Shape, NDArray[np.float64]]]] = {}
-    for g in robot.collision_geometry:
-        by_link.setdefault(g.link, []).append((g.shape, g.T_link_shape))
-    return {link: body_tree(shapes) for link, shapes in by_link.items()}
+    """The sphere tree of every link with collision geometry, in the link's frame (shared by
+    the models of the same robot: :func:`geometry_key`)."""
+
+    def make() -> dict[str, SphereTree]:
+        by_link: dict[str, list[tuple[Shape, NDArray[np.float64]]]] = {}
+        for g in robot.collision_geometry:
+            by_link.setdefault(g.link, []).append((g.shape, g.T_link_shape))
+        return {link: body_tree(shapes) for link, shapes in by_link.items()}
+
+    return _kept(("spheres", geometry_key(robot)), make)  # type: ignore[no-any-return]
 
 
-@lru_cache(maxsize=4)
 def robot_grids(robot: RobotModel) -> dict[str, DistanceGrid]:
     """The distance grid of every link whose collision geometry has a mesh (links made of
     primitives only have exact distances instead)."""
-    meshy = {g.link for g in robot.collision_geometry if isinstance(g.shape, Mesh)}
-    return {link: body_grid(t) for link, t in robot_spheres(robot).items() if link in meshy}
+
+    def make() -> dict[str, DistanceGrid]:
+        meshy = {g.link for g in robot.collision_geometry if isinstance(g.shape, Mesh)}
+        return {link: body_grid(t) for link, t in robot_spheres(robot).items() if link in meshy}
+
+    return _kept(("grids", geometry_key(robot)), make)  # type: ignore[no-any-return]
+
+
+def _kept(key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
+    """``make()``, kept by ``key`` for the last few robots' geometries (:func:`geometry_key`)."""
+    hit = _ROBOT_GEOMETRY.pop(key, None)
+    if hit is None:
+        hit = make()
+    _ROBOT_GEOMETRY[key] = hit  # the most recently used last
+    while len(_ROBOT_GEOMETRY) > 12:  # spheres, grids and packed links of four robots
+        _ROBOT_GEOMETRY.pop(next(iter(_ROBOT_GEOMETRY)))
+    return hit
+
+
+_ROBOT_GEOMETRY: dict[tuple[Any, ...], Any] = {}
 
 
 @dataclass
@@ -518,16 +559,20 @@ class _MergePool:
 _MERGE_POOL = _MergePool()
 
 
-@lru_cache(maxsize=4)
 def _robot_pack(robot: RobotModel, names: tuple[str, ...]) -> Packed:
-    """The packed links of a robot (the same for every checker of it)."""
-    spheres, grids = robot_spheres(robot), robot_grids(robot)
-    link_shapes: dict[str, list[tuple[Shape, NDArray[np.float64]]]] = {}
-    for g in robot.collision_geometry:
-        link_shapes.setdefault(g.link, []).append((g.shape, g.T_link_shape))
-    return pack_bodies(
-        [Body(n, n, np.eye(4), spheres[n], True, link_shapes[n], grids.get(n)) for n in names]
-    )
+    """The packed links of a robot (the same for every checker of every model of it: its
+    merges' buffers then serve them all)."""
+
+    def make() -> Packed:
+        spheres, grids = robot_spheres(robot), robot_grids(robot)
+        link_shapes: dict[str, list[tuple[Shape, NDArray[np.float64]]]] = {}
+        for g in robot.collision_geometry:
+            link_shapes.setdefault(g.link, []).append((g.shape, g.T_link_shape))
+        return pack_bodies(
+            [Body(n, n, np.eye(4), spheres[n], True, link_shapes[n], grids.get(n)) for n in names]
+        )
+
+    return _kept(("packed", geometry_key(robot), names), make)  # type: ignore[no-any-return]
 
 
 @dataclass
