@@ -338,20 +338,18 @@ def _free_ik(
     An analytic solver gives every solution: all of them, for all targets, are checked in one
     batch; a numeric one checks inside, retrying until a collision-free one."""
     checker = scene.checker(group)
-    out: list[NDArray[np.float64] | None] = [None] * len(targets)
     solver = ik_solver(group, tip_link)
-    if isinstance(solver, AnalyticIK):
-        # every solution of every target (nearest the seed first) in one compiled call
-        Q, counts = solver.solve_many(np.array(targets).reshape(-1, 4, 4), seed)
-        owner = np.repeat(np.arange(len(targets)), counts)
-    else:
-        found = []
-        for T in targets:
-            res = solve_ik(group, T, seed=seed, checker=checker, tip_link=tip_link, timeout=0.02)
-            found.append(res.solutions)  # collision-free already, nearest the seed first
-        owner = np.repeat(np.arange(len(targets)), [len(f) for f in found])
-        Q = np.vstack(found) if len(owner) else np.empty((0, group.dof))
-    if not len(owner):
+    if not isinstance(solver, AnalyticIK):
+        found = [
+            solve_ik(group, T, seed=seed, checker=checker, tip_link=tip_link, timeout=0.02)
+            for T in targets
+        ]  # collision-free already, nearest the seed first
+        return [r.solutions[0] if len(r.solutions) else None for r in found]
+    # every solution of every target (nearest the seed first) in one compiled call
+    Q, counts = solver.solve_many(np.array(targets).reshape(-1, 4, 4), seed)
+    owner = np.repeat(np.arange(len(targets)), counts)
+    out: list[NDArray[np.float64] | None] = [None] * len(targets)
+    if not len(Q):
         return out
     for row in np.flatnonzero(~checker.check(Q)):
         if out[owner[row]] is None:

@@ -95,7 +95,7 @@ def robot_spheres(robot: RobotModel) -> dict[str, SphereTree]:
             by_link.setdefault(g.link, []).append((g.shape, g.T_link_shape))
         return {link: body_tree(shapes) for link, shapes in by_link.items()}
 
-    return _kept(("spheres", geometry_key(robot)), make)  # type: ignore[no-any-return]
+    return _kept(_ROBOT_GEOMETRY, ("spheres", geometry_key(robot)), make, 12)  # type: ignore[no-any-return]
 
 
 def robot_grids(robot: RobotModel) -> dict[str, DistanceGrid]:
@@ -106,20 +106,23 @@ def robot_grids(robot: RobotModel) -> dict[str, DistanceGrid]:
         meshy = {g.link for g in robot.collision_geometry if isinstance(g.shape, Mesh)}
         return {link: body_grid(t) for link, t in robot_spheres(robot).items() if link in meshy}
 
-    return _kept(("grids", geometry_key(robot)), make)  # type: ignore[no-any-return]
+    return _kept(_ROBOT_GEOMETRY, ("grids", geometry_key(robot)), make, 12)  # type: ignore[no-any-return]
 
 
-def _kept(key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
-    """``make()``, kept by ``key`` for the last few robots' geometries (:func:`geometry_key`)."""
-    hit = _ROBOT_GEOMETRY.pop(key, None)
+def _kept(cache: dict[Any, Any], key: Any, make: Callable[[], Any], size: int) -> Any:
+    """``cache[key]``, made by ``make()`` if missing; ``cache`` keeps the ``size`` most
+    recently used (a dict in the order of use)."""
+    hit = cache.pop(key, None)
     if hit is None:
         hit = make()
-    _ROBOT_GEOMETRY[key] = hit  # the most recently used last
-    while len(_ROBOT_GEOMETRY) > 12:  # spheres, grids and packed links of four robots
-        _ROBOT_GEOMETRY.pop(next(iter(_ROBOT_GEOMETRY)))
+    cache[key] = hit  # the most recently used last
+    while len(cache) > size:
+        cache.pop(next(iter(cache)))
     return hit
 
 
+# the robots' link sphere trees, distance grids and packed links, by geometry_key: those of
+# four robots (12 entries)
 _ROBOT_GEOMETRY: dict[tuple[Any, ...], Any] = {}
 
 
@@ -572,7 +575,8 @@ def _robot_pack(robot: RobotModel, names: tuple[str, ...]) -> Packed:
             [Body(n, n, np.eye(4), spheres[n], True, link_shapes[n], grids.get(n)) for n in names]
         )
 
-    return _kept(("packed", geometry_key(robot), names), make)  # type: ignore[no-any-return]
+    key = ("packed", geometry_key(robot), names)
+    return _kept(_ROBOT_GEOMETRY, key, make, 12)  # type: ignore[no-any-return]
 
 
 @dataclass
@@ -794,7 +798,7 @@ _TABLES: weakref.WeakKeyDictionary[RobotModel, _RobotTables] = weakref.WeakKeyDi
 # the kernel's packed bodies (links, cluster unions, held objects) of the last few checkers,
 # across robots: a checker is built per candidate grasp or place, mostly for the same opening
 # and held object (the same merge then serves them all: see _merge for what one costs)
-_MERGED: dict[tuple[Any, ...], tuple[Packed, Packed]] = {}
+_MERGED: dict[tuple[Any, ...], Packed] = {}
 
 
 _EPOCH = [0]
@@ -1103,18 +1107,11 @@ class CollisionChecker:
             # all holding the same object); not by where they are held, which is the
             # checker's (body_T), not the merge's: synced from physics, it differs each time
             held = tuple((b.name, b.link, _shapes_key(b.shapes)) for b in bodies[n_robot:])
-            key = (id(robot_packed), names, tuple(self._union_keys), held)
-            hit = _MERGED.pop(key, None)
-            if hit is None:
-                # the entry keeps robot_packed alive, so its id names it while the entry exists
-                hit = (robot_packed, _merge(robot_packed, pack_bodies(extra)))
-            _MERGED[key] = hit  # the most recently used last
+            key = (geometry_key(robot), names, tuple(self._union_keys), held)
             # each holds a copy of a robot's arrays (tens of MB). The sorting demo's 100
             # lookups per layout, 34 of them new: 50 merges kept 3 first in, first out, 37
             # kept 5 least recently used out
-            while len(_MERGED) > 5:
-                _MERGED.pop(next(iter(_MERGED)))
-            packed = hit[1]
+            packed = _kept(_MERGED, key, lambda: _merge(robot_packed, pack_bodies(extra)), 5)
         # kept for as long as this checker lives: its arrays may be views of buffers that go
         # back to the pool when the merge is no longer in use (_merge)
         self._packed = packed

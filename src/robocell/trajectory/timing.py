@@ -25,6 +25,9 @@ from robocell.trajectory.trajectory import JointTrajectory, stationary
 
 KNOT_DT = 0.004  # [s] knot spacing of generated trajectories (250 Hz, a servo rate)
 
+# toppra's info messages quieted (its own setup_logging added a handler per call)
+logging.getLogger("toppra").setLevel(logging.WARNING)
+
 
 def _scaling(value: float, name: str) -> float:
     if not (isinstance(value, int | float) and 0.0 < value <= 1.0):
@@ -178,15 +181,13 @@ def _toppra_piece(
     return traj
 
 
-@functools.cache
+@functools.lru_cache(maxsize=32)
 def _constraints(v_max: bytes, a_max: bytes) -> list[Any]:
     """TOPP-RA's joint velocity and acceleration constraints for these limits (float64
     bytes), made once: they do not depend on the path, and making one formats its limits
-    into a description (0.6 ms of a 4.8 ms time parameterization, measured). The first call
-    also quiets toppra's logger below warnings (its setup_logging added a handler per call)."""
+    into a description (0.6 ms of a 4.8 ms time parameterization, measured)."""
     import toppra.constraint as constraint
 
-    logging.getLogger("toppra").setLevel(logging.WARNING)
     return [
         constraint.JointVelocityConstraint(np.frombuffer(v_max)),
         constraint.JointAccelerationConstraint(
