@@ -6,7 +6,11 @@ the valid choices, so that a typo is fixed from the message alone.
 
 from __future__ import annotations
 
+import math
+import numbers
 from collections.abc import Iterable
+
+import numpy as np
 
 
 class RobocellError(Exception):
@@ -66,3 +70,29 @@ def choices(names: Iterable[str], limit: int = 30) -> str:
 def unknown(kind: str, name: object, known: Iterable[str]) -> str:
     """The standard message for an unknown name: ``unknown link 'x'; known: a, b``."""
     return f"unknown {kind} {name!r}; known: {choices(known)}"
+
+
+def number(value: object, what: str, error: type[RobocellError]) -> float:
+    """``value`` as a float when it is one finite real number (a Python or numpy number, not
+    a bool or a string), else ``error`` naming ``what``: a user's ``"0.5"`` or ``None`` gets
+    this message, not a TypeError from a comparison deep inside."""
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        x = float(value)
+    elif isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "fiu":
+        x = float(value)
+    else:
+        raise error(f"{what} must be a number, got {value!r}")
+    if not math.isfinite(x):
+        raise error(f"{what} must be finite, got {value!r}")
+    return x
+
+
+def vector(value: object, size: int, what: str, error: type[RobocellError]) -> np.ndarray:
+    """``value`` as a (size,) float array of finite numbers, else ``error`` naming ``what``."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.shape != (size,) or not np.all(np.isfinite(arr)):
+        raise error(f"{what} must be {size} finite numbers, got {value!r}")
+    return arr

@@ -8,7 +8,7 @@ import pytest
 
 from robocell import PlanningScene, Pose
 from robocell.cell import MoveGroup
-from robocell.errors import ExecutionError, ModelError, PlanningError
+from robocell.errors import ExecutionError, ModelError, PlanningError, RobocellError
 
 
 @pytest.fixture
@@ -114,6 +114,68 @@ def test_errors(arm):
         arm.plan()
     with pytest.raises(ExecutionError, match="JointTrajectory"):
         arm.execute("plan")
+
+
+# values of the wrong kind, as a user's slip makes them: each call must answer with a
+# RobocellError naming the argument (before, most raised TypeError or ValueError from a
+# comparison or a conversion deep inside), and change neither the group nor the scene
+NUMBERS = [None, "abc", [1, 2], np.zeros(3), {"x": 1.0}, float("nan")]
+NAMES = ["abc", [1, 2], np.zeros(3), {"x": 1.0}, 3.5]
+VECTORS = [None, "abc", [1, 2], {"x": 1.0}, [0.3, float("nan"), 0.3], 3.5]
+GROUP_CALLS = {
+    "set_planning_time": (lambda g, v: g.set_planning_time(v), NUMBERS),
+    "set_num_planning_attempts": (lambda g, v: g.set_num_planning_attempts(v), [*NUMBERS, 2.5]),
+    "set_max_velocity_scaling_factor": (
+        lambda g, v: g.set_max_velocity_scaling_factor(v),
+        NUMBERS,
+    ),
+    "set_max_acceleration_scaling_factor": (
+        lambda g, v: g.set_max_acceleration_scaling_factor(v),
+        NUMBERS,
+    ),
+    "set_goal_tolerance": (lambda g, v: g.set_goal_tolerance(v), NUMBERS),
+    "set_planner_id": (lambda g, v: g.set_planner_id(v), [None, *NAMES[1:]]),
+    "set_named_target": (lambda g, v: g.set_named_target(v), [None, *NAMES]),
+    "set_end_effector_link": (lambda g, v: g.set_end_effector_link(v), [None, *NAMES]),
+    "get_current_pose": (lambda g, v: g.get_current_pose(v), NAMES),
+    "get_named_target_values": (lambda g, v: g.get_named_target_values(v), [None, *NAMES]),
+    "set_joint_value_target": (lambda g, v: g.set_joint_value_target({"joint_1": v}), NUMBERS),
+    "set_position_target": (lambda g, v: g.set_position_target(v), VECTORS),
+    "compute_cartesian_path (waypoints)": (lambda g, v: g.compute_cartesian_path(v), NUMBERS),
+    "compute_cartesian_path (eef_step)": (
+        lambda g, v: g.compute_cartesian_path([g.get_current_pose()], v),
+        NUMBERS,
+    ),
+    "compute_cartesian_path (jump_threshold)": (
+        lambda g, v: g.compute_cartesian_path([g.get_current_pose()], 0.01, v),
+        NUMBERS,
+    ),
+    "compute_sequence (blend_radius)": (
+        lambda g, v: g.compute_sequence([g.get_current_pose()], v),
+        NUMBERS,
+    ),
+    "move_relative (rpy)": (lambda g, v: g.move_relative((0, 0, 0.01), v), VECTORS),
+    "move_relative (frame)": (lambda g, v: g.move_relative((0, 0, 0.01), (0, 0, 0), v), NAMES),
+    "detach_object": (lambda g, v: g.detach_object(v), [None, *NAMES]),
+    "attach_object": (lambda g, v: g.attach_object(v), [None, *NAMES]),
+    "scene.set_object_padding": (lambda g, v: g.scene.set_object_padding("table", v), NUMBERS),
+    "scene.remove_object": (lambda g, v: g.scene.remove_object(v), [None, *NAMES]),
+    "scene.allow_collision": (lambda g, v: g.scene.allow_collision(v, "table"), [None, *NAMES]),
+}
+
+
+@pytest.mark.parametrize("name", GROUP_CALLS)
+def test_values_of_the_wrong_kind_get_a_robocell_error(arm, name):
+    call, values = GROUP_CALLS[name]
+    settings = dict(vars(arm))
+    q = arm.scene.state.positions.copy()
+    objects = (sorted(arm.scene.world_objects), sorted(arm.scene.attached_objects))
+    for v in values:
+        with pytest.raises(RobocellError):
+            call(arm, v)
+        assert dict(vars(arm)) == settings
+        assert np.array_equal(arm.scene.state.positions, q)
+        assert (sorted(arm.scene.world_objects), sorted(arm.scene.attached_objects)) == objects
 
 
 def test_linear_sequence_with_blend_radius(arm):

@@ -173,6 +173,49 @@ def test_bad_input_names_the_item_and_changes_nothing(pp, call, words):
     _same(before, _snapshot(pp))
 
 
+# values of the wrong kind, as a student's slip makes them (a list for a name, a string
+# for a number, None): a RobocellError, as for a bad value, and nothing changes
+NUMBERS = [None, "abc", [1, 2], np.zeros(3), {"x": 1}, float("inf")]
+NAMES = [None, [1, 2], np.zeros(3), {"x": 1}, 3.5]
+P = [0.4, 0.0, 0.2]
+API_CALLS = {
+    "get_object_pose": (lambda p, v: p.get_object_pose(v), NAMES),
+    "get_object_info": (lambda p, v: p.get_object_info(v), NAMES),
+    "get_target_position": (lambda p, v: p.get_target_position(v), NAMES),
+    "move_joint_arm": (lambda p, v: p.move_joint_arm(v, 0, 0, 0, 0, 0), NUMBERS),
+    "move_joint_hand": (lambda p, v: p.move_joint_hand(v), NUMBERS),
+    "set_grasp_distance": (lambda p, v: p.set_grasp_distance(v, 0.2), NUMBERS),
+    "set_grasp_direction": (lambda p, v: p.set_grasp_direction(0, v, -1), NUMBERS),
+    "generate_grasp (object)": (lambda p, v: p.generate_grasp(v, "vertical", P), NAMES),
+    "generate_grasp (orientation)": (lambda p, v: p.generate_grasp("red_box", v, P), NAMES),
+    "generate_grasp (length)": (
+        lambda p, v: p.generate_grasp("red_box", "vertical", P, length=v),
+        NUMBERS,
+    ),
+    "generate_grasp (yaw)": (
+        lambda p, v: p.generate_grasp("red_box", "vertical", P, yaw=v),
+        NUMBERS,
+    ),
+    "pickup (object)": (
+        lambda p, v: p.pickup(v, [p.generate_grasp("red_box", "vertical", P)]),
+        NAMES,
+    ),
+    "pickup (grasps)": (lambda p, v: p.pickup("red_box", v), [*NUMBERS, 3.5]),
+    "place (orientation)": (lambda p, v: p.place(v, P), NAMES),
+    "place (distance)": (lambda p, v: p.place("vertical", P, v), NUMBERS),
+}
+
+
+@pytest.mark.parametrize("name", API_CALLS)
+def test_values_of_the_wrong_kind_get_a_robocell_error(pp, name):
+    call, values = API_CALLS[name]
+    for v in values:
+        before = _snapshot(pp)
+        with pytest.raises(RobocellError):
+            call(pp, v)
+        _same(before, _snapshot(pp))
+
+
 def test_errors_are_the_right_kind(pp):
     with pytest.raises(GraspError):
         pp.generate_grasp("red_box", "vertical", [0.4, 0, 0.2], 0.9)

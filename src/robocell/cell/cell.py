@@ -145,8 +145,10 @@ class Cell:
 
     def target_position(self, name: str, frame: str = "robot") -> NDArray[np.float64]:
         """A target's position [m] in the robot base frame (``frame="robot"``) or the world."""
+        if not isinstance(frame, str) or frame not in ("robot", "world"):
+            raise CellError(f"unknown frame {frame!r}; known: robot, world")
         for t in self.spec.targets:
-            if t.name == name:
+            if isinstance(name, str) and t.name == name:
                 p = np.array(t.position, dtype=float)
                 T_w_r = self.robot_spec.pose.matrix()
                 if t.frame == frame:
@@ -233,7 +235,7 @@ class Cell:
     def object_pose(self, name: str) -> Pose:
         """An object's pose in the world frame: the world's ground truth in physics mode, the
         scene's in kinematic mode (held objects follow the gripper)."""
-        if name not in self.object_names:
+        if not isinstance(name, str) or name not in self.object_names:
             raise CellError(f"unknown object {name!r}; known: {choices(self.object_names)}")
         if self.world is not None:
             return self.world.object_pose(name)

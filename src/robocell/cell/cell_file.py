@@ -131,7 +131,7 @@ class CellSpec:
 
     def object(self, name: str) -> ObjectSpec:
         for o in self.objects:
-            if o.name == name:
+            if isinstance(name, str) and o.name == name:
                 return o
         raise CellError(f"unknown object {name!r}; known: {choices(o.name for o in self.objects)}")
 

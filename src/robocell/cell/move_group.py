@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import ExecutionError, PlanningError, choices
+from robocell.errors import ExecutionError, PlanningError, choices, number, vector
 from robocell.execution.controller import Controller, ExecutionHandle, KinematicController
 from robocell.geometry.pose import Pose
 from robocell.planning.cartesian import (
@@ -108,7 +108,13 @@ class MoveGroup:
         if self.sync_state is not None:
             self.sync_state()
         with self._lock:
-            return self.scene.link_pose(link or self.end_effector_link)
+            return self.scene.link_pose(self._link(link))
+
+    def _link(self, link: str | None) -> str:
+        """``link``, or the end-effector link for None or "" (MoveIt's default argument)."""
+        return (
+            self.end_effector_link if link is None or (isinstance(link, str) and not link) else link
+        )
 
     def get_named_targets(self) -> list[str]:
         return sorted(self.group.named_states)
@@ -126,24 +132,21 @@ class MoveGroup:
 
     # ------------------------------------------------------------------ settings
     def set_planning_time(self, seconds: float) -> None:
-        if not seconds > 0:
-            raise PlanningError(f"planning time must be > 0 s, got {seconds}")
-        self.planning_time = float(seconds)
+        self.planning_time = _positive(seconds, "planning time [s]")
 
     def set_num_planning_attempts(self, n: int) -> None:
-        if int(n) < 1:
-            raise PlanningError(f"number of planning attempts must be >= 1, got {n}")
-        self.attempts = int(n)
+        x = number(n, "number of planning attempts", PlanningError)
+        if x < 1 or x != int(x):
+            raise PlanningError(
+                f"number of planning attempts must be a whole number >= 1, got {n!r}"
+            )
+        self.attempts = int(x)
 
     def set_max_velocity_scaling_factor(self, f: float) -> None:
-        if not 0 < f <= 1:
-            raise PlanningError(f"velocity scaling factor must be in (0, 1], got {f}")
-        self.velocity_scaling = float(f)
+        self.velocity_scaling = _factor(f, "velocity scaling factor")
 
     def set_max_acceleration_scaling_factor(self, f: float) -> None:
-        if not 0 < f <= 1:
-            raise PlanningError(f"acceleration scaling factor must be in (0, 1], got {f}")
-        self.acceleration_scaling = float(f)
+        self.acceleration_scaling = _factor(f, "acceleration scaling factor")
 
     def set_goal_tolerance(self, tolerance: float) -> None:
         """Joint [rad], position [m] and orientation [rad] tolerance at once (as MoveIt)."""
@@ -161,6 +164,13 @@ class MoveGroup:
         self.orientation_tolerance = _positive(tolerance, "orientation tolerance")
 
     def set_planner_id(self, planner_id: str) -> None:
+        """The planner by MoveIt's name (``RRTConnectkConfigDefault``, …; an OMPL planner
+        needs ``pip install ompl``), or "" for the native planner (checked when planning)."""
+        if not isinstance(planner_id, str):
+            raise PlanningError(
+                f'planner id must be a name (a string, "" for the native planner), '
+                f"got {planner_id!r}"
+            )
         self.planner_id = planner_id
 
     # ------------------------------------------------------------------ targets
@@ -185,7 +195,9 @@ class MoveGroup:
                         f"unknown joint {name!r} of group {self.group.name!r}; "
                         f"known: {choices(self.group.joint_names)}"
                     )
-                target[self.group.joint_names.index(name)] = float(v)
+                target[self.group.joint_names.index(name)] = number(
+                    v, f"joint target {name!r}", PlanningError
+                )
         else:
             target = self.group.as_joint_vector(q, "joint target")
         bad = self.group.limit_violations(target)
@@ -196,16 +208,14 @@ class MoveGroup:
     def set_pose_target(self, pose: Pose | ArrayLike, link: str | None = None) -> None:
         """A pose goal for ``link`` (default: the end-effector link), world frame."""
         p = pose if isinstance(pose, Pose) else Pose.from_any(pose)
-        link = link or self.end_effector_link
+        link = self._link(link)
         self.scene.robot.link_index(link, "pose target link")
         self._goal = PoseGoal(link, p, self.position_tolerance, self.orientation_tolerance)
 
     def set_position_target(self, xyz: ArrayLike, link: str | None = None) -> None:
         """A position-only goal for ``link`` (any orientation), world frame [m]."""
-        p = np.asarray(xyz, dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise PlanningError(f"a position target needs 3 finite numbers, got {xyz!r}")
-        link = link or self.end_effector_link
+        p = vector(xyz, 3, "a position target", PlanningError)
+        link = self._link(link)
         self.scene.robot.link_index(link, "position target link")
         self._goal = PositionGoal(link, p, self.position_tolerance)
 
@@ -279,6 +289,7 @@ class MoveGroup:
     ) -> CartesianPlan:
         """Straight lines of the end-effector link through ``waypoints`` (world frame), from
         the start state; unpacks as ``trajectory, fraction``."""
+        waypoints = _waypoints(waypoints)
         if self.sync_state is not None:
             self.sync_state()
         start = self._start if self._start is not None else self.get_current_joint_values()
@@ -286,7 +297,7 @@ class MoveGroup:
             cp = compute_cartesian_path(
                 self.scene,
                 self.group,
-                list(waypoints),
+                waypoints,
                 eef_step,
                 jump_threshold,
                 avoid_collisions,
@@ -311,6 +322,7 @@ class MoveGroup:
         """Straight moves of the end-effector link through ``waypoints`` (world frame), each
         corner rounded from ``blend_radius`` [m] before it (Pilz's LIN sequence with blend
         radii, ABB's zones); 0 stops at every corner. Timed time-optimally."""
+        waypoints = _waypoints(waypoints)
         if self.sync_state is not None:
             self.sync_state()
         start = self._start if self._start is not None else self.get_current_joint_values()
@@ -318,7 +330,7 @@ class MoveGroup:
             seq = compute_linear_sequence(
                 self.scene,
                 self.group,
-                list(waypoints),
+                waypoints,
                 blend_radius,
                 eef_step,
                 True,
@@ -363,7 +375,7 @@ class MoveGroup:
     ) -> AttachedObject:
         """Attach world object ``id`` to ``link`` (default: the end-effector link)."""
         with self._lock:
-            return self.scene.attach_object(id, link or self.end_effector_link, touch_links)
+            return self.scene.attach_object(id, self._link(link), touch_links)
 
     def detach_object(self, id: str) -> CollisionObject:
         with self._lock:
@@ -371,9 +383,26 @@ class MoveGroup:
 
 
 def _positive(v: float, what: str) -> float:
-    if not (v > 0 and np.isfinite(v)):
-        raise PlanningError(f"{what} must be > 0, got {v}")
-    return float(v)
+    x = number(v, what, PlanningError)
+    if not x > 0:
+        raise PlanningError(f"{what} must be > 0, got {v!r}")
+    return x
+
+
+def _factor(v: float, what: str) -> float:
+    x = number(v, what, PlanningError)
+    if not 0 < x <= 1:
+        raise PlanningError(f"{what} must be in (0, 1], got {v!r}")
+    return x
+
+
+def _waypoints(waypoints: Iterable[Pose]) -> list[Pose]:
+    """``waypoints`` as a list (each is read as a pose by the Cartesian planner)."""
+    if isinstance(waypoints, str | bytes | dict | Pose) or not isinstance(waypoints, Iterable):
+        raise PlanningError(
+            f"waypoints must be a list of poses, got {type(waypoints).__name__} {waypoints!r}"
+        )
+    return list(waypoints)
 
 
 def _trajectory_of(plan: MotionPlan | JointTrajectory | CartesianPlan) -> JointTrajectory:

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robocell.cell.cell import Cell
-from robocell.errors import GraspError, PlanningError, RobocellError, choices
+from robocell.errors import GraspError, PlanningError, RobocellError, choices, number
 from robocell.exercise.msgs import Point, PoseMsg
 from robocell.geometry.pose import Pose, rpy_to_matrix
 from robocell.grasping.grasp import Grasp, GripperTranslation, PlaceLocation
@@ -165,7 +165,12 @@ class PickPlace:
         joint_5: float,
     ) -> bool:
         """Plan and move the arm to joint values [rad] (joint_1 … joint_6 of the robot)."""
-        q = np.array([joint_0, joint_1, joint_2, joint_3, joint_4, joint_5], dtype=float)
+        q = np.array(
+            [
+                number(v, f"move_joint_arm: joint_{i}", PlanningError)
+                for i, v in enumerate((joint_0, joint_1, joint_2, joint_3, joint_4, joint_5))
+            ]
+        )
         g = self.arm.group
         for i, v in enumerate(q):
             if not np.isfinite(v) or not g.lower[i] - 1e-9 <= v <= g.upper[i] + 1e-9:
@@ -235,8 +240,9 @@ class PickPlace:
     def set_grasp_distance(self, min_distance: float, desired_distance: float) -> None:
         """How far [m] the gripper moves straight before a grasp (approach) and after it
         (retreat): at least ``min_distance``, ideally ``desired_distance``."""
-        lo, hi = float(min_distance), float(desired_distance)
-        if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi):
+        lo = number(min_distance, "set_grasp_distance: min_distance", GraspError)
+        hi = number(desired_distance, "set_grasp_distance: desired_distance", GraspError)
+        if not 0 <= lo <= hi:
             raise GraspError(
                 f"set_grasp_distance needs 0 <= min_distance <= desired_distance, got "
                 f"{min_distance!r}, {desired_distance!r}"
@@ -246,8 +252,13 @@ class PickPlace:
     def set_grasp_direction(self, x: float, y: float, z: float) -> None:
         """The direction of the approach before a grasp (robot frame; any length); the
         retreat goes the opposite way."""
-        d = np.array([x, y, z], dtype=float)
-        if not np.all(np.isfinite(d)) or np.linalg.norm(d) < 1e-9:
+        d = np.array(
+            [
+                number(v, f"set_grasp_direction: {a}", GraspError)
+                for a, v in zip("xyz", (x, y, z), strict=True)
+            ]
+        )
+        if np.linalg.norm(d) < 1e-9:
             raise GraspError(f"set_grasp_direction needs a non-zero direction, got {(x, y, z)}")
         self._direction = (float(d[0]), float(d[1]), float(d[2]))
 
@@ -268,16 +279,11 @@ class PickPlace:
         of 0.15 (the tool centre point's offset), ``position`` is where the fingertips close.
         ``width`` is the gripper value to close to, in [0, 0.8]; 0 chooses it from the
         object's size across the fingers."""
-        if object_name not in self.cell.object_names:
-            raise GraspError(
-                f"unknown object {object_name!r}; known: {choices(self.cell.object_names)}"
-            )
+        self._known_object(object_name)
         R = _orientation(eef_orientation, roll, pitch, yaw, "generate_grasp", (0.0, 0.0, 0.0))
         w = _gripper_value(width, "generate_grasp: width")
         p = np.asarray(Point.of(position, "generate_grasp: position"), dtype=float)
-        if not np.isfinite(float(length)):
-            raise GraspError(f"generate_grasp: length must be a finite number, got {length!r}")
-        tool0 = p - float(length) * R[:, 0]
+        tool0 = p - number(length, "generate_grasp: length", GraspError) * R[:, 0]
         self._warn_workspace(tool0)
         T_r = np.eye(4)
         T_r[:3, :3], T_r[:3, 3] = R, tool0
@@ -302,6 +308,10 @@ class PickPlace:
             (object_name,),
         )  # fmt: skip
 
+    def _known_object(self, name: str) -> None:
+        if not isinstance(name, str) or name not in self.cell.object_names:
+            raise GraspError(f"unknown object {name!r}; known: {choices(self.cell.object_names)}")
+
     def _command_from_size(self, name: str, pose: Pose) -> float:
         """The gripper value that closes SQUEEZE below the object's size across the fingers."""
         from robocell.grasping.generators import _extent
@@ -318,14 +328,15 @@ class PickPlace:
     def pickup(self, object_name: str, grasps: Sequence[Grasp]) -> ManipulationResult:
         """Pick ``object_name`` with the first of ``grasps`` (in the given order) that works:
         open, approach, close, attach, retreat. The object stays attached until placed."""
-        if object_name not in self.cell.object_names:
-            raise GraspError(
-                f"unknown object {object_name!r}; known: {choices(self.cell.object_names)}"
-            )
+        self._known_object(object_name)
         if isinstance(grasps, Grasp):
             grasps = [grasps]
-        if not grasps or not all(isinstance(g, Grasp) for g in grasps):
-            raise GraspError("pickup needs a list of grasps from generate_grasp")
+        if (
+            not isinstance(grasps, list | tuple)
+            or not grasps
+            or not all(isinstance(g, Grasp) for g in grasps)
+        ):
+            raise GraspError(f"pickup needs a list of grasps from generate_grasp, got {grasps!r}")
         if self._held is not None:
             raise GraspError(f"already holding {self._held!r}: place it before picking another")
         ordered = [
@@ -355,8 +366,8 @@ class PickPlace:
         opens, lets go, goes straight up."""
         R = _orientation(eef_orientation, roll, pitch, yaw, "place", (0.0, 0.0, 180.0))
         p = np.asarray(Point.of(position, "place: position"), dtype=float)
-        dist = float(distance)
-        if not (math.isfinite(dist) and dist > 0):
+        dist = number(distance, "place: distance [m]", GraspError)
+        if not dist > 0:
             raise GraspError(f"place: distance must be > 0 [m], got {distance!r}")
         if self._held is None:
             raise GraspError("place: nothing is held; pickup an object first")
@@ -405,17 +416,20 @@ def _orientation(
     default: tuple[float, float, float],
 ) -> NDArray[np.float64]:
     """R of tool0 (robot frame) for a mode and angles in degrees, as the seed defines them."""
+    if not isinstance(mode, str) or mode not in ORIENTATIONS:
+        raise GraspError(
+            f"{what}: unknown eef_orientation {mode!r}; known: {', '.join(ORIENTATIONS)}"
+        )
     if mode == "horizontal":
         rpy = (default[0], pitch, default[2])
     elif mode == "vertical":
         rpy = (0.0, 90.0, yaw)
-    elif mode == "user_defined":
+    else:  # user_defined
         rpy = (roll, pitch, yaw)
-    else:
-        raise GraspError(
-            f"{what}: unknown eef_orientation {mode!r}; known: {', '.join(ORIENTATIONS)}"
-        )
-    a = np.radians(np.asarray(rpy, dtype=float))
-    if not np.all(np.isfinite(a)):
-        raise GraspError(f"{what}: roll, pitch, yaw must be finite, got {rpy}")
+    a = np.radians(
+        [
+            number(v, f"{what}: {n}", GraspError)
+            for n, v in zip(("roll", "pitch", "yaw"), rpy, strict=True)
+        ]
+    )
     return rpy_to_matrix(*a)

@@ -212,7 +212,10 @@ class Pose:
                     f"unknown pose key(s) {sorted(extra)}; expected: position, orientation"
                 )
             return cls(value.get("position", (0, 0, 0)), value.get("orientation", (0, 0, 0, 1)))
-        arr = np.asarray(value, dtype=float)
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            arr = np.empty(0)  # not numbers: the error below
         if arr.shape == (4, 4):
             return cls.from_matrix(arr)
         if arr.shape == (3,):

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
-from robocell.errors import PlanningError
+from robocell.errors import PlanningError, number, vector
 from robocell.geometry.pose import Pose
 from robocell.kinematics import _kernels as KK
 from robocell.kinematics.fk import fk, tree_args
@@ -81,10 +81,10 @@ def compute_cartesian_path(
     if not waypoints:
         raise PlanningError("compute_cartesian_path needs at least one waypoint")
     for name, v in (("eef_step", eef_step), ("rotation_step", rotation_step)):
-        if not (v > 0 and math.isfinite(v)):
-            raise PlanningError(f"{name} must be > 0, got {v}")
-    if jump_threshold < 0 or not math.isfinite(jump_threshold):
-        raise PlanningError(f"jump_threshold must be >= 0, got {jump_threshold}")
+        if not number(v, name, PlanningError) > 0:
+            raise PlanningError(f"{name} must be > 0, got {v!r}")
+    if number(jump_threshold, "jump_threshold", PlanningError) < 0:
+        raise PlanningError(f"jump_threshold must be >= 0, got {jump_threshold!r}")
     targets = []
     for k, w in enumerate(waypoints):
         if not isinstance(w, Pose):
@@ -279,10 +279,10 @@ def relative_pose(
     """``T_world_link`` moved by ``translation`` [m] and rotated by ``rpy`` [rad], expressed in
     ``frame``: "world", "base" (the robot base; needs ``T_world_base``) or "tool" (the link's
     own frame: "forward 0.05 m" along its z axis is ``translation=(0, 0, 0.05)``)."""
-    t = np.asarray(translation, dtype=float)
-    if t.shape != (3,) or not np.all(np.isfinite(t)):
-        raise PlanningError(f"translation must be 3 finite numbers, got {translation!r}")
-    delta = Pose.from_rpy(*t, *np.asarray(rpy, dtype=float))
+    if not isinstance(frame, str) or frame not in ("world", "base", "tool"):
+        raise PlanningError(f"unknown frame {frame!r}; known: base, tool, world")
+    t = vector(translation, 3, "translation", PlanningError)
+    delta = Pose.from_rpy(*t, *vector(rpy, 3, "rpy", PlanningError))
     if frame == "tool":
         return T_world_link * delta
     if frame in ("world", "base"):
@@ -329,8 +329,10 @@ def compute_linear_sequence(
     corner. A reversal always stops. Orientation is interpolated along each move."""
     g = scene.robot.group(group) if isinstance(group, str) else group
     tip = link or g.tip_link
-    if not (blend_radius >= 0 and math.isfinite(blend_radius)):
-        raise PlanningError(f"blend_radius must be >= 0 [m], got {blend_radius}")
+    if number(blend_radius, "blend_radius [m]", PlanningError) < 0:
+        raise PlanningError(f"blend_radius must be >= 0 [m], got {blend_radius!r}")
+    if not number(eef_step, "eef_step [m]", PlanningError) > 0:
+        raise PlanningError(f"eef_step must be > 0 [m], got {eef_step!r}")
     if not waypoints:
         raise PlanningError("a linear sequence needs at least one waypoint")
     q = (

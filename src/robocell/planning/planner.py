@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from robocell.errors import PlanningError, choices
+from robocell.errors import PlanningError, choices, number
 from robocell.geometry.pose import Pose
 from robocell.kinematics.ik import NumericIK, NumericIKConfig, solve_ik
 from robocell.planning import _kernels as PK
@@ -603,14 +603,23 @@ def _radii(tries: int) -> NDArray[np.float64]:
 
 
 def _check_request(request: MotionPlanRequest) -> None:
-    if not (request.planning_time > 0 and np.isfinite(request.planning_time)):
-        raise PlanningError(f"planning time must be > 0 s, got {request.planning_time}")
-    if request.attempts < 1:
-        raise PlanningError(f"number of planning attempts must be >= 1, got {request.attempts}")
+    if not number(request.planning_time, "planning time [s]", PlanningError) > 0:
+        raise PlanningError(f"planning time must be > 0 s, got {request.planning_time!r}")
+    attempts = number(request.attempts, "number of planning attempts", PlanningError)
+    if attempts < 1 or attempts != int(attempts):
+        raise PlanningError(
+            f"number of planning attempts must be a whole number >= 1, got {request.attempts!r}"
+        )
     for name in ("velocity_scaling", "acceleration_scaling"):
         v = getattr(request, name)
-        if not 0 < v <= 1:
-            raise PlanningError(f"{name.replace('_', ' ')} factor must be in (0, 1], got {v}")
+        what = f"{name.replace('_', ' ')} factor"
+        if not 0 < number(v, what, PlanningError) <= 1:
+            raise PlanningError(f"{what} must be in (0, 1], got {v!r}")
+    if not isinstance(request.planner_id, str):
+        raise PlanningError(
+            f'planner id must be a name (a string, "" for the native planner), '
+            f"got {request.planner_id!r}"
+        )
 
 
 def _pairs(checker: CollisionChecker, q: NDArray[np.float64]) -> str:

@@ -141,7 +141,7 @@ class JointGroup:
 
     def named(self, name: str) -> NDArray[np.float64]:
         """The joint values of a named state of this group (from the SRDF's group_state)."""
-        if name not in self.named_states:
+        if not isinstance(name, str) or name not in self.named_states:
             raise ModelError(
                 f"unknown named state {name!r} of group {self.name!r}; "
                 f"known: {choices(self.named_states)}"
@@ -544,18 +544,18 @@ class RobotModel:
 
     def group(self, name: str) -> JointGroup:
         """The planning group ``name`` (MoveIt's getJointModelGroup)."""
-        if name not in self.groups:
+        if not isinstance(name, str) or name not in self.groups:
             raise ModelError(unknown("group", name, self.groups))
         return self.groups[name]
 
     def link_index(self, name: str, context: str = "") -> int:
-        if name not in self._link_index:
+        if not isinstance(name, str) or name not in self._link_index:
             prefix = f"{context}: " if context else ""
             raise ModelError(prefix + unknown("link", name, self.link_names))
         return self._link_index[name]
 
     def variable_index(self, name: str) -> int:
-        if name not in self._var_index:
+        if not isinstance(name, str) or name not in self._var_index:
             raise ModelError(unknown("joint", name, self.variable_names))
         return self._var_index[name]
 

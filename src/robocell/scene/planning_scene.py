@@ -8,7 +8,6 @@ state. Every operation validates everything first and changes nothing when it fa
 from __future__ import annotations
 
 import copy
-import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import SceneError, choices, unknown
+from robocell.errors import SceneError, choices, number, unknown
 from robocell.geometry.pose import Pose, invert_transform
 from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere
 from robocell.kinematics.fk import link_poses
@@ -111,10 +110,10 @@ class PlanningScene:
         (boxes, cylinders and spheres) in every collision check, so that a path that grazes
         a world object in the plan does not knock it over in the world, and a held object,
         which swings a little in the fingers, does not hit the world. 0 removes the padding."""
-        if id not in self._world and id not in self._attached:
+        if not isinstance(id, str) or (id not in self._world and id not in self._attached):
             raise SceneError(unknown("object", id, [*self._world, *self._attached]))
-        p = float(padding)
-        if not (math.isfinite(p) and p >= 0):
+        p = number(padding, "padding [m]", SceneError)
+        if p < 0:
             raise SceneError(f"padding must be >= 0 [m], got {padding!r}")
         obj = self._world.get(id) or self._attached[id].object
         for shape in obj.shapes:
@@ -130,6 +129,8 @@ class PlanningScene:
 
     def object_padding(self, id: str) -> float:
         """The padding [m] of an object, in the world or held (0 if none)."""
+        if not isinstance(id, str):
+            raise SceneError(unknown("object", id, [*self._world, *self._attached]))
         return self._padding.get(id, 0.0)
 
     def without_padding(self, ids: Iterable[str]) -> PlanningScene:
@@ -140,7 +141,7 @@ class PlanningScene:
         41 times per object, each building a checker of its own: 1.3 s per layout.)"""
         ids = [*ids]
         for id in ids:
-            if id not in self._world and id not in self._attached:
+            if not isinstance(id, str) or (id not in self._world and id not in self._attached):
                 raise SceneError(unknown("object", id, [*self._world, *self._attached]))
         padded = tuple(sorted(id for id in ids if id in self._padding))
         if not padded:
@@ -182,7 +183,7 @@ class PlanningScene:
 
     def get_object(self, id: str) -> CollisionObject:
         """A world object by id (a held object: see ``attached_objects``)."""
-        if id not in self._world:
+        if not isinstance(id, str) or id not in self._world:
             raise SceneError(unknown("object", id, self._world))
         return self._world[id]
 
@@ -194,6 +195,8 @@ class PlanningScene:
 
     def remove_object(self, id: str) -> None:
         """Remove a world object (detach a held one first)."""
+        if not isinstance(id, str):
+            raise SceneError(unknown("object", id, self._world))
         if id in self._attached:
             raise SceneError(
                 f"object {id!r} is held by link {self._attached[id].link!r}; detach it first"
@@ -247,7 +250,7 @@ class PlanningScene:
 
     def detach_object(self, id: str) -> CollisionObject:
         """Put a held object back into the world at its current pose."""
-        if id not in self._attached:
+        if not isinstance(id, str) or id not in self._attached:
             raise SceneError(f"object {id!r} is not attached; attached: {choices(self._attached)}")
         held = self._attached[id]
         T_world_obj = self.link_pose(held.link).matrix() @ held.object.pose.matrix()
@@ -262,7 +265,7 @@ class PlanningScene:
         """Allow (or forbid) contact between two names: links, object ids."""
         known = set(self.robot.link_names) | set(self._world) | set(self._attached)
         for name in [a, *([b] if isinstance(b, str) else list(b))]:
-            if name not in known:
+            if not isinstance(name, str) or name not in known:
                 raise SceneError(unknown("link or object", name, known))
         self.acm.set_entry(a, b, allowed)
         self._changed()
