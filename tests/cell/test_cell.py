@@ -157,6 +157,12 @@ def test_kinematic_mode(tmp_path):
     assert cell.object_pose("red_box").isclose(cell.spec.object("red_box").pose)
     with pytest.raises(CellError, match="unknown mode"):
         Cell.load("sorting", mode="dream")
+    with pytest.raises(CellError, match="unknown mode"):
+        Cell.load("sorting", mode=["kinematic"])
+    with pytest.raises(CellError, match="bundled: .*sorting"):
+        Cell.load(None)
+    with pytest.raises(CellError, match="unknown frame 'tool'"):
+        cell.target_position("red_target", frame="tool")
     with pytest.raises(CellError, match="unknown target 'pink_target'"):
         cell.target_position("pink_target")
     assert np.allclose(cell.target_position("red_target"), [-0.4, 0.15, 0.2])

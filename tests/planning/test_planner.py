@@ -187,6 +187,19 @@ def test_unsolved_in_time_is_a_result_not_an_error(walled):
 
 def test_errors(walled):
     planner = Planner(walled)
+    # values of the wrong kind: a PlanningError naming the field, not a TypeError from inside
+    for kwargs, words in (
+        ({"seed": "abc"}, "seed"),
+        ({"seed": 1.5}, "seed"),
+        ({"planning_time": None}, "planning time"),
+        ({"attempts": 2.5}, "attempts"),
+        ({"velocity_scaling": "1"}, "velocity scaling"),
+        ({"planner_id": None}, "planner id"),
+    ):
+        with pytest.raises(PlanningError, match=words):
+            planner.plan(MotionPlanRequest("arm", JointGoal(GOAL), start=START, **kwargs))
+    with pytest.raises(PlanningError, match="position goal"):
+        planner.plan(MotionPlanRequest("arm", PositionGoal("tcp", "abc"), start=START))
     with pytest.raises(ModelError, match="known: arm"):
         planner.plan(MotionPlanRequest("arms", JointGoal(GOAL)))
     with pytest.raises(PlanningError, match="joint_1"):

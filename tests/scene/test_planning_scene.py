@@ -60,6 +60,15 @@ def test_add_move_remove(scene):
         ),
         (lambda s: s.set_joint_positions("arm", [0, 0]), ModelError, "must have 6 entries"),
         (lambda s: s.allow_collision("can", "tabel"), SceneError, "unknown link or object 'tabel'"),
+        # values of the wrong kind: the same errors, not a TypeError from inside
+        (lambda s: s.add_box("x", Pose(), 0.1), SceneError, "box's size"),
+        (lambda s: s.add_box("x", Pose(), "abc"), SceneError, "box's size"),
+        (lambda s: s.set_joint_positions(["arm"], [0] * 6), ModelError, "unknown group"),
+        (lambda s: s.set_joint_positions("arm", "abc"), ModelError, "must be numbers"),
+        (lambda s: s.set_object_padding("can", "0.01"), SceneError, "padding"),
+        (lambda s: s.remove_object(["can"]), SceneError, "unknown object"),
+        (lambda s: s.allow_collision(["can"], "table"), SceneError, "unknown link or object"),
+        (lambda s: s.checker("arm").check("abc"), ModelError, "must be numbers"),
         (
             lambda s: s.add_object(CollisionObject("bad id!", (Box((1, 1, 1)),), (Pose(),))),
             SceneError,

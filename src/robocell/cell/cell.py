@@ -50,7 +50,7 @@ class Cell:
         time_scale: float = 1.0,
         object_padding: float = 0.01,
     ) -> None:
-        if mode not in MODES:
+        if not isinstance(mode, str) or mode not in MODES:
             raise CellError(f"unknown mode {mode!r}; known: {', '.join(MODES)}")
         self.spec = spec
         self.mode = mode

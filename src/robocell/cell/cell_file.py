@@ -443,6 +443,11 @@ def bundled_cells() -> list[str]:
 
 def cell_path(name_or_path: str | Path) -> Path:
     """A bundled cell's file by name, or the path given."""
+    if not isinstance(name_or_path, str | Path):
+        raise CellError(
+            f"a cell is a bundled cell's name or a cell file's path, got {name_or_path!r}; "
+            f"bundled: {choices(bundled_cells())}"
+        )
     p = Path(name_or_path)
     if p.suffix in (".yaml", ".yml") or p.exists():
         return p

@@ -74,7 +74,7 @@ def compute_cartesian_path(
     MoveIt's relative test (a step longer in joint space than that many times the mean step is
     a jump); whatever it is, no joint may move more than ``max_joint_step`` [rad] in one step.
     """
-    g = scene.robot.group(group) if isinstance(group, str) else group
+    g = group if isinstance(group, JointGroup) else scene.robot.group(group)
     robot = scene.robot
     tip = link or g.tip_link
     robot.link_index(tip, "Cartesian path link")
@@ -327,7 +327,7 @@ def compute_linear_sequence(
     each corner is rounded by an arc that starts ``blend_radius`` [m] before it (at most half
     of each neighbouring move), so the motion flows through; ``blend_radius=0`` stops at every
     corner. A reversal always stops. Orientation is interpolated along each move."""
-    g = scene.robot.group(group) if isinstance(group, str) else group
+    g = group if isinstance(group, JointGroup) else scene.robot.group(group)
     tip = link or g.tip_link
     if number(blend_radius, "blend_radius [m]", PlanningError) < 0:
         raise PlanningError(f"blend_radius must be >= 0 [m], got {blend_radius!r}")

@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from robocell.errors import PlanningError, choices, number
+from robocell.errors import PlanningError, choices, number, vector
 from robocell.geometry.pose import Pose
 from robocell.kinematics.ik import NumericIK, NumericIKConfig, solve_ik
 from robocell.planning import _kernels as PK
@@ -273,11 +273,7 @@ class Planner:
                 raise PlanningError(f"pose goal for {goal.link!r} has no solution: {res.reason}")
             return res.solutions
         if isinstance(goal, PositionGoal):
-            p = np.asarray(goal.position, dtype=float)
-            if p.shape != (3,) or not np.all(np.isfinite(p)):
-                raise PlanningError(
-                    f"a position goal needs 3 finite numbers, got {goal.position!r}"
-                )
+            p = vector(goal.position, 3, "a position goal", PlanningError)
             T = np.eye(4)
             T[:3, 3] = (T_base_world @ np.append(p, 1.0))[:3]
             key = (group.name, goal.link)
@@ -615,6 +611,10 @@ def _check_request(request: MotionPlanRequest) -> None:
         what = f"{name.replace('_', ' ')} factor"
         if not 0 < number(v, what, PlanningError) <= 1:
             raise PlanningError(f"{what} must be in (0, 1], got {v!r}")
+    if request.seed is not None:
+        seed = number(request.seed, "seed", PlanningError)
+        if seed != int(seed):
+            raise PlanningError(f"seed must be a whole number or None, got {request.seed!r}")
     if not isinstance(request.planner_id, str):
         raise PlanningError(
             f'planner id must be a name (a string, "" for the native planner), '

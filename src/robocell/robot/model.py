@@ -177,7 +177,10 @@ class JointGroup:
                 # one configuration (a plan's start and goal checks: the general path below
                 # cost 10 µs of Python, measured)
                 return qs.reshape(1, self._dof)
-        arr = np.asarray(qs, dtype=float)
+        try:
+            arr = np.asarray(qs, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ModelError(f"{name} for group {self.name!r} must be numbers, got {qs!r}") from exc
         if arr.ndim == 1:
             arr = arr[None, :]
         if arr.ndim != 2 or arr.shape[1] != self.dof:
@@ -603,11 +606,11 @@ class RobotState:
         self.positions = pos
 
     def group_positions(self, group: str | JointGroup) -> NDArray[np.float64]:
-        g = self.robot.group(group) if isinstance(group, str) else group
+        g = group if isinstance(group, JointGroup) else self.robot.group(group)
         return self.positions[g.indices].copy()
 
     def set_group_positions(self, group: str | JointGroup, q: ArrayLike) -> None:
-        g = self.robot.group(group) if isinstance(group, str) else group
+        g = group if isinstance(group, JointGroup) else self.robot.group(group)
         self.positions[g.indices] = g.as_joint_vector(q)
 
     def set_named(self, group: str, name: str) -> None:

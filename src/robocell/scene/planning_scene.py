@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import SceneError, choices, number, unknown
+from robocell.errors import SceneError, choices, number, unknown, vector
 from robocell.geometry.pose import Pose, invert_transform
 from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere
 from robocell.kinematics.fk import link_poses
@@ -60,7 +60,7 @@ class PlanningScene:
 
     def set_joint_positions(self, group: str | JointGroup, q: ArrayLike) -> None:
         """Set the current joint values of a group (validated: length, finite, within limits)."""
-        g = self.robot.group(group) if isinstance(group, str) else group
+        g = group if isinstance(group, JointGroup) else self.robot.group(group)
         arr = g.as_joint_vector(q)
         bad = g.limit_violations(arr)
         if bad:
@@ -164,7 +164,8 @@ class PlanningScene:
 
     def add_box(self, id: str, pose: Pose | ArrayLike, size: ArrayLike) -> CollisionObject:
         """A box of full extents ``size`` (x, y, z) [m] centred at ``pose``."""
-        return self.add_shape(id, Box(tuple(np.asarray(size, float).tolist())), pose)  # type: ignore[arg-type]
+        sx, sy, sz = vector(size, 3, "a box's size (x, y, z) [m]", SceneError).tolist()
+        return self.add_shape(id, Box((sx, sy, sz)), pose)
 
     def add_cylinder(
         self, id: str, pose: Pose | ArrayLike, radius: float, length: float
@@ -273,7 +274,7 @@ class PlanningScene:
     # ------------------------------------------------------------------ queries
     def checker(self, group: str | JointGroup) -> CollisionChecker:
         """The batched checker for ``group`` at this scene's contents, other joints as now."""
-        g = self.robot.group(group) if isinstance(group, str) else group
+        g = group if isinstance(group, JointGroup) else self.robot.group(group)
         others = self.state.positions.copy()
         others[g.positions] = 0.0  # the other joints' values (np.delete cost 6 µs a plan)
         key = (g.name, self._version, self.acm.version, others.tobytes())
@@ -294,7 +295,7 @@ class PlanningScene:
                 all_group,
                 self.state.positions.copy() if q is None else all_group.as_joint_vector(q),
             )
-        g = self.robot.group(group) if isinstance(group, str) else group
+        g = group if isinstance(group, JointGroup) else self.robot.group(group)
         return g, self.state.group_positions(g) if q is None else g.as_joint_vector(q)
 
     def _all_group(self) -> JointGroup:
