@@ -62,6 +62,15 @@ def test_failures_name_the_stage_and_the_candidate():
         man.pick("red_bx", [good])
     with pytest.raises(GraspError, match="not held"):
         man.place("red_box", [])
+    # values of the wrong kind: a GraspError, not a TypeError or AttributeError from inside
+    with pytest.raises(GraspError, match="unknown object"):
+        man.pick(["red_box"], [good])
+    with pytest.raises(GraspError, match="list of Grasp"):
+        man.pick("red_box", good)
+    with pytest.raises(GraspError, match="list of Grasp"):
+        man.pick("red_box", ["good"])
+    with pytest.raises(GraspError, match="not held"):
+        man.release(["red_box"])
     # the next call works
     assert man.pick(
         "red_box", generate_grasps("red_box", o.shape, T, man.geometry, cell.scene, "arm")

@@ -124,12 +124,42 @@ def test_resample_and_sample(arm, path):
         traj.resample(0.0)
 
 
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda arm, traj: time_optimal(arm, "abc"),
+        lambda arm, traj: time_optimal(arm, [[0.0] * 6, [0.1, "x", 0, 0, 0, 0]]),
+        lambda arm, traj: jerk_limited(arm, {"x": 1}),
+        lambda arm, traj: jerk_limited(arm, [[0.0] * 6, [np.nan] * 6]),
+        lambda arm, traj: traj.sample("abc"),
+        lambda arm, traj: traj.sample(np.nan),
+        lambda arm, traj: traj.positions_at(None),
+        lambda arm, traj: traj.resample(None),
+        lambda arm, traj: traj.resample("0.01"),
+        lambda arm, traj: traj.scaled(None),
+        lambda arm, traj: traj.scaled(0.0),
+        lambda arm, traj: traj.then(None),
+        lambda arm, traj: traj.then(traj.positions),
+    ],
+)
+def test_values_of_the_wrong_kind_get_a_planning_error(arm, path, call):
+    """Not a TypeError, ValueError or AttributeError from inside (a NaN time used to give NaN
+    positions without a word)."""
+    traj = time_optimal(arm, path)
+    with pytest.raises(PlanningError):
+        call(arm, traj)
+
+
 def test_plot_writes_a_png(arm, path, tmp_path):
     from robocell.trajectory import plot_trajectory
 
     out = plot_trajectory(time_optimal(arm, path), tmp_path / "traj.png", arm)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert out.stat().st_size > 10_000
+    with pytest.raises(PlanningError, match="JointTrajectory"):
+        plot_trajectory(path, tmp_path / "x.png")
+    with pytest.raises(PlanningError, match="file path"):
+        plot_trajectory(time_optimal(arm, path), None)
 
 
 def test_smooth_path_through_dense_samples_is_exactly_time_optimal(arm):

@@ -13,6 +13,7 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -218,8 +219,9 @@ class Manipulator:
     def pick(self, name: str, grasps: list[Grasp]) -> ManipulationResult:
         """Pick object ``name`` with the first grasp (in quality order) that works."""
         cell, scene = self.cell, self.cell.scene
-        if name not in cell.object_names:
+        if not isinstance(name, str) or name not in cell.object_names:
             raise GraspError(f"unknown object {name!r}; known: {', '.join(cell.object_names)}")
+        grasps = _candidates(grasps, Grasp, "pick")
         if not grasps:
             return ManipulationResult(False, reason=f"no grasp candidates for {name!r}")
         self._plan_s = self._robot_s = 0.0
@@ -292,8 +294,9 @@ class Manipulator:
         reason says how far the object moved and turned. Physics only: in kinematic mode
         nothing moves what the gripper touches."""
         cell, scene = self.cell, self.cell.scene
-        if name not in cell.object_names:
+        if not isinstance(name, str) or name not in cell.object_names:
             raise GraspError(f"unknown object {name!r}; known: {', '.join(cell.object_names)}")
+        pushes = _candidates(pushes, Push, "push")
         if cell.world is None:
             raise GraspError("pushing needs physics: in kinematic mode objects do not move")
         if name in scene.attached_objects:
@@ -373,7 +376,7 @@ class Manipulator:
     def release(self, name: str) -> None:
         """Let go of a held object where it is (open the gripper, detach it): after a place
         that failed, so that the next pick starts with an empty hand."""
-        if name not in self.cell.scene.attached_objects:
+        if not isinstance(name, str) or name not in self.cell.scene.attached_objects:
             raise GraspError(f"object {name!r} is not held")
         self._stop.clear()
         self.set_gripper(self.geometry.open_command)
@@ -426,10 +429,11 @@ class Manipulator:
         """Place the held object ``name`` at the first location (in quality order) that
         works."""
         cell, scene = self.cell, self.cell.scene
-        if name not in scene.attached_objects:
+        if not isinstance(name, str) or name not in scene.attached_objects:
             raise GraspError(
                 f"object {name!r} is not held; held: {', '.join(scene.attached_objects) or 'none'}"
             )
+        locations = _candidates(locations, PlaceLocation, "place")
         self._plan_s = self._robot_s = 0.0
         self._stop.clear()
         result = ManipulationResult(False)
@@ -503,3 +507,10 @@ class Manipulator:
             except RobocellError as exc:
                 result.stages.append(StageResult(loc.id, "plan", False, str(exc)))
         return self._finish(result, len(locations), "places")
+
+
+def _candidates(items: object, kind: type, what: str) -> list[Any]:
+    """``items`` as a list of ``kind`` (a list or tuple of them), or a GraspError."""
+    if not isinstance(items, list | tuple) or not all(isinstance(x, kind) for x in items):
+        raise GraspError(f"{what} needs a list of {kind.__name__} candidates, got {items!r}")
+    return list(items)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from robocell.errors import PlanningError
 from robocell.robot.model import JointGroup
 from robocell.trajectory.trajectory import JointTrajectory
 
@@ -18,6 +19,12 @@ def plot_trajectory(
 ) -> Path:
     """Write a PNG of the trajectory's positions, velocities and accelerations (sampled every
     ``dt`` [s]); with ``group``, its limits are drawn as dashed lines. Returns the file's path."""
+    if not isinstance(trajectory, JointTrajectory):
+        raise PlanningError(
+            f"plot_trajectory needs a JointTrajectory, got {type(trajectory).__name__}"
+        )
+    if not isinstance(path, str | Path):
+        raise PlanningError(f"plot_trajectory needs a file path, got {path!r}")
     import matplotlib
 
     matplotlib.use("Agg")

@@ -35,6 +35,14 @@ def _scaling(value: float, name: str) -> float:
     return float(value)
 
 
+def _waypoints(path: ArrayLike) -> NDArray[np.float64]:
+    """``path`` as a float array (shape checked by the caller), or a PlanningError."""
+    try:
+        return np.asarray(path, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise PlanningError(f"a path must be waypoints of numbers, got {path!r}") from exc
+
+
 def _limits(
     group: JointGroup, velocity_scaling: float, acceleration_scaling: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -85,7 +93,7 @@ def time_optimal(
     if isinstance(path, BlendedPath | SplinePath):
         bp = path
     else:
-        wp = np.asarray(path, dtype=float)
+        wp = _waypoints(path)
         if wp.ndim != 2 or wp.shape[1] != group.dof or not np.all(np.isfinite(wp)):
             raise PlanningError(
                 f"a path for group {group.name!r} must be finite (K, {group.dof}) waypoints, "
@@ -337,8 +345,8 @@ def jerk_limited(
 ) -> JointTrajectory:
     """Jerk-limited trajectory through ``waypoints`` (K, dof): a ruckig PTP per segment, each
     a straight line from rest to rest (the path is exactly the polyline)."""
-    wp = np.asarray(waypoints, dtype=float)
-    if wp.ndim != 2 or wp.shape[1] != group.dof:
+    wp = _waypoints(waypoints)
+    if wp.ndim != 2 or wp.shape[1] != group.dof or not np.all(np.isfinite(wp)):
         raise PlanningError(f"waypoints must be (K, {group.dof}), got shape {wp.shape}")
     traj = stationary(group, wp[0])
     for a, b in zip(wp[:-1], wp[1:], strict=True):

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import PlanningError
+from robocell.errors import PlanningError, number
 from robocell.robot.model import JointGroup
 
 
@@ -90,7 +90,13 @@ class JointTrajectory:
 
     def sample(self, t: ArrayLike) -> TrajectorySample:
         """States at times ``t`` (scalar or (M,)) [s], clamped to [0, duration]."""
-        ts = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), self.times[0], self.times[-1])
+        try:
+            raw = np.atleast_1d(np.asarray(t, dtype=float))
+        except (TypeError, ValueError):
+            raw = np.array([np.nan])  # not numbers: refused below
+        if raw.ndim != 1 or raw.shape[0] == 0 or not np.all(np.isfinite(raw)):
+            raise PlanningError(f"sample times must be finite numbers [s], got {t!r}")
+        ts = np.clip(raw, self.times[0], self.times[-1])
         if len(self) == 1:
             m = ts.shape[0]
             z = np.zeros((m, self.dof))
@@ -124,8 +130,8 @@ class JointTrajectory:
 
     def resample(self, dt: float) -> JointTrajectory:
         """The same motion with knots every ``dt`` [s] (and at the end)."""
-        if not dt > 0:
-            raise PlanningError(f"dt must be > 0, got {dt}")
+        if not number(dt, "dt [s]", PlanningError) > 0:
+            raise PlanningError(f"dt must be > 0, got {dt!r}")
         n = max(1, int(np.ceil(self.duration / dt - 1e-9)))
         ts = np.minimum(np.arange(n + 1) * dt, self.duration) + self.times[0]
         ts = np.unique(ts)
@@ -142,6 +148,8 @@ class JointTrajectory:
 
     def scaled(self, k: float) -> JointTrajectory:
         """The same path ``k`` ≥ 1 times slower: velocities / k, accelerations / k²."""
+        if not number(k, "time scale k", PlanningError) > 0:
+            raise PlanningError(f"time scale k must be > 0, got {k!r}")
         return JointTrajectory(
             self.joint_names,
             self.times * k,
@@ -155,6 +163,8 @@ class JointTrajectory:
 
     def then(self, other: JointTrajectory) -> JointTrajectory:
         """This trajectory followed by ``other`` (which must start where this one ends)."""
+        if not isinstance(other, JointTrajectory):
+            raise PlanningError(f"then() needs a JointTrajectory, got {type(other).__name__}")
         if other.joint_names != self.joint_names:
             raise PlanningError("cannot join trajectories of different joints")
         if not np.allclose(other.positions[0], self.positions[-1], atol=1e-6):
