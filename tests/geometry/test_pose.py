@@ -71,6 +71,24 @@ def test_bad_poses_raise_clear_errors(position, orientation, words):
     assert isinstance(info.value, RobocellError)
 
 
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: rpy_to_matrix(math.inf, 0, 0),
+        lambda: rpy_to_matrix("abc", 0, 0),
+        lambda: Pose.from_rpy(0, 0, 0, None, 0, 0),
+        lambda: Pose.from_matrix("abc"),
+        lambda: Pose.from_any({"position": "abc"}),
+        lambda: Pose.from_any("abc"),
+        lambda: Pose().isclose([0, 0, 0]),
+    ],
+)
+def test_values_of_the_wrong_kind_get_a_geometry_error(call):
+    """Not a ValueError from math or a conversion, nor an AttributeError, from inside."""
+    with pytest.raises(GeometryError):
+        call()
+
+
 def test_pose_is_immutable():
     p = Pose((1, 2, 3))
     with pytest.raises(ValueError):

@@ -78,6 +78,13 @@ def test_bad_input(gripper):
         generate_grasps("m", mesh, Pose(), gripper)
     with pytest.raises(GraspError, match="yaw_step_deg"):
         generate_grasps("b", Box((0.05, 0.05, 0.05)), Pose(), gripper, yaw_step_deg=0)
+    # values of the wrong kind: a GraspError naming them, not a TypeError from inside
+    with pytest.raises(GraspError, match="object id"):
+        generate_grasps(["b"], Box((0.05, 0.05, 0.05)), Pose(), gripper)
+    with pytest.raises(GraspError, match="Shape"):
+        generate_grasps("b", (0.05, 0.05, 0.05), Pose(), gripper)
+    with pytest.raises(GraspError, match="Pose"):
+        generate_grasps("b", Box((0.05, 0.05, 0.05)), [0, 0, 0], gripper)
 
 
 def test_places_put_the_object_at_the_target(cell, gripper):

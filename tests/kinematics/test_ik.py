@@ -162,6 +162,13 @@ def test_bad_targets(irb120):
         solve_ik(arm, np.eye(3))
     with pytest.raises(ModelError, match="IK seed"):
         solve_ik(arm, Pose((0.4, 0, 0.4)), seed=[0, 0])
+    # values of the wrong kind: the same errors, not a TypeError or ValueError from inside
+    with pytest.raises(IKError, match="4x4"):
+        solve_ik(arm, "abc")
+    with pytest.raises(ModelError, match="unknown link"):
+        solve_ik(arm, Pose((0.4, 0, 0.4)), tip_link=["tool0"])
+    with pytest.raises(ModelError, match="unknown link"):
+        fk(arm, np.zeros(6), np.zeros(3))
 
 
 def test_solvers_do_not_keep_their_robots_alive():

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import GeometryError
+from robocell.errors import GeometryError, number
 
 FloatArray = NDArray[np.float64]
 
@@ -79,6 +79,9 @@ def matrix_to_quat(R: ArrayLike) -> FloatArray:
 
 def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> FloatArray:
     """``Rz(yaw) @ Ry(pitch) @ Rx(roll)``, angles in [rad] (static x-y-z, as tf)."""
+    roll, pitch, yaw = (
+        number(a, n, GeometryError) for a, n in ((roll, "roll"), (pitch, "pitch"), (yaw, "yaw"))
+    )
     cr, sr = math.cos(roll), math.sin(roll)
     cp, sp = math.cos(pitch), math.sin(pitch)
     cy, sy = math.cos(yaw), math.sin(yaw)
@@ -194,7 +197,10 @@ class Pose:
     @classmethod
     def from_matrix(cls, T: ArrayLike) -> Pose:
         """Pose of a 4×4 homogeneous transform."""
-        m = np.asarray(T, dtype=float)
+        try:
+            m = np.asarray(T, dtype=float)
+        except (TypeError, ValueError):
+            m = np.empty(0)  # not numbers: refused below
         if m.shape != (4, 4) or not np.isfinite(m).all():
             raise GeometryError(f"a transform must be a finite 4x4 matrix, got shape {m.shape}")
         return cls._of_matrix(m)
@@ -272,6 +278,8 @@ class Pose:
 
     def isclose(self, other: Pose, atol: float = 1e-9, rot_atol: float = 1e-9) -> bool:
         """Same position within ``atol`` [m] and orientation within ``rot_atol`` [rad]."""
+        if not isinstance(other, Pose):
+            raise GeometryError(f"isclose compares two Poses, got {type(other).__name__}")
         return bool(
             np.linalg.norm(self.position - other.position) <= atol
             and rotation_error(self.rotation(), other.rotation()) <= rot_atol

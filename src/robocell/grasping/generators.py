@@ -22,7 +22,7 @@ from typing import TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from robocell.errors import GraspError
+from robocell.errors import GraspError, vector
 from robocell.geometry.pose import Pose
 from robocell.geometry.shapes import Box, Cylinder, Shape, Sphere
 from robocell.grasping.grasp import (
@@ -41,6 +41,16 @@ from robocell.scene.planning_scene import PlanningScene
 _R = TypeVar("_R")
 
 BOX_FACE_MIN = math.cos(math.radians(2 * 10))  # side pinches of a box: within 10° of its faces
+
+
+def _check_object(object_id: object, shape: object, T_world_object: object) -> None:
+    """A GraspError unless the object is named by a string, with a Shape and a Pose."""
+    if not isinstance(object_id, str):
+        raise GraspError(f"an object id must be a string, got {object_id!r}")
+    if not isinstance(shape, Shape):
+        raise GraspError(f"object {object_id!r}: its shape must be a Shape, got {shape!r}")
+    if not isinstance(T_world_object, Pose):
+        raise GraspError(f"object {object_id!r}: its pose must be a Pose, got {T_world_object!r}")
 
 
 def _frame(
@@ -131,6 +141,7 @@ def generate_grasps(
     surface. With ``scene`` and ``arm``, only those the arm reaches collision-free, at the
     grasp and at the start of the approach's minimum distance, are kept, each with its IK
     solution."""
+    _check_object(object_id, shape, T_world_object)
     if yaw_step_deg <= 0:
         raise GraspError(f"yaw_step_deg must be > 0, got {yaw_step_deg}")
     shape, T = _upright(shape, T_world_object.matrix())
@@ -370,9 +381,9 @@ def generate_places(
     """Place candidates: the held object's centre at ``target`` (world), turned about the
     vertical by each yaw, the gripper keeping the grasp it holds the object with; approach
     down and retreat up."""
-    p = np.asarray(target, dtype=float)
-    if p.shape != (3,) or not np.all(np.isfinite(p)):
-        raise GraspError(f"a place target needs 3 finite numbers, got {target!r}")
+    p = vector(target, 3, "a place target", GraspError)
+    if not isinstance(grasp, Grasp) or not isinstance(T_world_object_at_grasp, Pose):
+        raise GraspError("generate_places needs the Grasp that holds the object and its Pose then")
     T_obj_eef = T_world_object_at_grasp.inverse() * grasp.pose
     # the same moves for every yaw (immutable: shared)
     approach = GripperTranslation((0.0, 0.0, -1.0), *approach_distance)

@@ -57,8 +57,8 @@ def _link(group: JointGroup, link: str | None) -> tuple[RobotModel, int]:
     robot = group.robot
     if robot is None:
         raise ModelError(f"group {group.name!r} is not attached to a robot model")
-    name = link or group.tip_link
-    if not name:
+    name = group.tip_link if link is None or (isinstance(link, str) and not link) else link
+    if isinstance(name, str) and not name:
         raise ModelError(f"group {group.name!r} has no tip link; name the link to use")
     return robot, robot.link_index(name)
 

@@ -71,7 +71,10 @@ def as_target(target: Pose | ArrayLike) -> NDArray[np.float64]:
     """A 4×4 target from a Pose or a 4×4 array (validated: finite, rigid)."""
     if isinstance(target, Pose):
         return target.matrix()
-    T = np.asarray(target, dtype=float)
+    try:
+        T = np.asarray(target, dtype=float)
+    except (TypeError, ValueError):
+        T = np.empty(0)  # not numbers: refused below
     if T.shape != (4, 4):
         raise IKError(f"an IK target must be a Pose or a 4x4 matrix, got shape {T.shape}")
     # one sum proves every entry finite; np.allclose costs ten times this whole check
@@ -338,7 +341,13 @@ def ik_solver(group: JointGroup, tip_link: str | None = None) -> AnalyticIK | Nu
     robot = group.robot
     if robot is None:
         raise ModelError(f"group {group.name!r} is not attached to a robot model")
-    tip = tip_link or group.tip_link
+    tip = (
+        group.tip_link
+        if tip_link is None or (isinstance(tip_link, str) and not tip_link)
+        else tip_link
+    )
+    if not isinstance(tip, str):
+        robot.link_index(tip, "IK tip link")  # refuses it, naming the links
     key = (group.name, tip)
     # kept on the robot, so that they go with it (a module-level cache keyed by the robot kept
     # every robot a process loaded alive, with its collision model: 80 MB per sorting layout)

@@ -288,6 +288,8 @@ class RobotModel:
         joint_limits.yaml). Meshes named ``package://pkg/path`` or by relative path resolve
         against ``package_dirs`` and the URDF's folder. XML text may be passed instead of a path.
         """
+        if not isinstance(urdf, str | Path):
+            raise ModelError(f"a URDF is a file's path or its XML text, got {urdf!r}")
         if isinstance(urdf, str) and urdf.lstrip().startswith("<"):
             text, robot, urdf_dir = urdf, parse_urdf(urdf), Path.cwd()
         else:
