@@ -1,3 +1,5 @@
+import pytest
+
 from robocell.apps import demo
 from robocell.apps.cli import main
 
@@ -43,3 +45,22 @@ def test_demo_sorts_layout_0_in_kinematic_mode_by_shape(capsys, monkeypatch, tmp
 def test_bench_planning_names_an_unknown_baseline(capsys):
     assert main(["bench", "planning", "--limit", "1", "--baseline", "ompl,moveit"]) == 1
     assert "unknown baseline 'moveit'; known: ompl, ompl-kernel" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (
+            ["--robots", "panda", "--sets", "tabel_pick"],
+            "unknown problem set of panda 'tabel_pick'",
+        ),
+        (["--robots", "ur6"], "unknown robot 'ur6'; known: panda, ur5"),
+        (["--robots", "panda", "--sets", "table_pick", "--limit", "-1"], "--limit"),
+        (["--robots", "panda", "--sets", "table_pick", "--timeout", "0"], "--timeout"),
+    ],
+)
+def test_bench_planning_names_an_unknown_robot_or_set_and_a_bad_limit(capsys, args, words):
+    """Before, an unknown set printed a row of zeros and exited 0, an unknown robot named a
+    missing URDF file, and --limit -1 ran all problems but the last."""
+    assert main(["bench", "planning", *args]) == 1
+    assert words in capsys.readouterr().err

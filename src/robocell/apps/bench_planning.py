@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robocell.errors import PlanningError, RobocellError
+from robocell.errors import PlanningError, RobocellError, unknown
 from robocell.planning import JointGoal, MotionPlanRequest, Planner, PlannerConfig
 from robocell.planning.rrt import warm_up
 from robocell.robot.model import RobotModel
@@ -81,6 +81,22 @@ def default_mbm_dir() -> Path:
         "the MotionBenchMaker problems were not found: pass --mbm PATH (the folder holding "
         "ur5/ and panda/) or set ROBOCELL_SHARED"
     )
+
+
+def _check_choices(mbm: Path, robots: list[str], sets: list[str]) -> None:
+    """A RobocellError naming an unknown robot or set, with the ones ``mbm`` holds (before,
+    an unknown set printed a row of zeros, and an unknown robot a missing URDF file)."""
+    known_robots = sorted(d.name for d in mbm.iterdir() if (d / "problems").is_dir())
+    for robot in robots:
+        if robot not in known_robots:
+            raise RobocellError(unknown("robot", robot, known_robots))
+        folder = mbm / robot / "problems"
+        known_sets = sorted(
+            d.name.removesuffix(f"_{robot}") for d in folder.iterdir() if d.is_dir()
+        )
+        for s in sets:
+            if s not in known_sets:
+                raise RobocellError(unknown(f"problem set of {robot}", s, known_sets))
 
 
 def load_robot(mbm: Path, robot: str) -> RobotModel:
@@ -177,6 +193,11 @@ def run(
     for b in baselines:
         if b not in BASELINES:
             raise PlanningError(f"unknown baseline {b!r}; known: {', '.join(BASELINES)}")
+    _check_choices(base, robots, sets)
+    if limit < 1:
+        raise PlanningError(f"--limit must be at least 1 problem per set, got {limit}")
+    if not timeout > 0:
+        raise PlanningError(f"--timeout must be > 0 s, got {timeout}")
     planners = ["", *baselines]
     header = (
         f"{'robot':6} {'set':17} {'planner':11} {'probs':>5} {'valid':>5} {'solved':>6} "
