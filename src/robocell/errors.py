@@ -11,6 +11,7 @@ import numbers
 from collections.abc import Iterable
 
 import numpy as np
+from numpy.typing import NDArray
 
 
 class RobocellError(Exception):
@@ -87,12 +88,38 @@ def number(value: object, what: str, error: type[RobocellError]) -> float:
     return x
 
 
-def vector(value: object, size: int, what: str, error: type[RobocellError]) -> np.ndarray:
-    """``value`` as a (size,) float array of finite numbers, else ``error`` naming ``what``."""
+def whole(value: object, what: str, error: type[RobocellError]) -> int:
+    """``value`` as an int when it is a finite number with no fraction (2.0 is 2, 2.5 is
+    refused rather than cut to 2), else ``error`` naming ``what``."""
+    x = number(value, what, error)
+    if x != int(x):
+        raise error(f"{what} must be a whole number, got {value!r}")
+    return int(x)
+
+
+def floats(value: object, what: str, error: type[RobocellError]) -> NDArray[np.float64]:
+    """``value`` as a float array (any shape; the caller checks it), else ``error`` naming
+    ``what``: text, None or a ragged list."""
     try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        arr = None
-    if arr is None or arr.shape != (size,) or not np.all(np.isfinite(arr)):
-        raise error(f"{what} must be {size} finite numbers, got {value!r}")
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise error(f"{what} must be numbers, got {value!r}") from exc
+
+
+def vector(value: object, size: int, what: str, error: type[RobocellError]) -> NDArray[np.float64]:
+    """``value`` as a (size,) float array of finite numbers, else ``error`` naming ``what``."""
+    arr = floats(value, what, error)
+    if arr.shape != (size,):
+        raise error(f"{what} must have {size} entries, got shape {arr.shape}: {value!r}")
+    if not np.all(np.isfinite(arr)):
+        raise error(
+            f"{what} must be {size} finite numbers, has a NaN or infinite entry: {arr.tolist()}"
+        )
     return arr
+
+
+def name_or(name: str | None, default: str) -> str:
+    """``name``, or ``default`` for None or "" (MoveIt's "use the default" arguments). Not
+    ``name or default``: an array's truth value raises. Whatever else a user passes comes
+    back as it is, for the lookup that follows to refuse with the known names."""
+    return default if name is None or (isinstance(name, str) and not name) else name

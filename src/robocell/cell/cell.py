@@ -368,8 +368,7 @@ class Cell:
 
     def move_group(self, group: str) -> MoveGroup:
         """MoveIt's commander for ``group`` of the cell's robot (one per group)."""
-        if not isinstance(group, str):
-            self.scene.robot.group(group)  # refuses it, naming the groups
+        self.scene.robot.group(group)  # an unknown one refused, naming the groups
         if group not in self._groups:
             mg = MoveGroup(self.scene, group, controller=self.controller(group))
             mg.sync_state = self.sync_robot_state

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import ExecutionError, PlanningError, choices, number, vector
+from robocell.errors import ExecutionError, PlanningError, choices, name_or, number, vector
 from robocell.execution.controller import Controller, ExecutionHandle, KinematicController
 from robocell.geometry.pose import Pose
 from robocell.planning.cartesian import (
@@ -26,7 +26,7 @@ from robocell.planning.cartesian import (
     compute_linear_sequence,
     relative_pose,
 )
-from robocell.planning.planner import Planner, PlannerConfig
+from robocell.planning.planner import Planner, PlannerConfig, planner_name, planning_attempts
 from robocell.planning.request import (
     Goal,
     JointGoal,
@@ -112,9 +112,7 @@ class MoveGroup:
 
     def _link(self, link: str | None) -> str:
         """``link``, or the end-effector link for None or "" (MoveIt's default argument)."""
-        return (
-            self.end_effector_link if link is None or (isinstance(link, str) and not link) else link
-        )
+        return name_or(link, self.end_effector_link)
 
     def get_named_targets(self) -> list[str]:
         return sorted(self.group.named_states)
@@ -135,12 +133,7 @@ class MoveGroup:
         self.planning_time = _positive(seconds, "planning time [s]")
 
     def set_num_planning_attempts(self, n: int) -> None:
-        x = number(n, "number of planning attempts", PlanningError)
-        if x < 1 or x != int(x):
-            raise PlanningError(
-                f"number of planning attempts must be a whole number >= 1, got {n!r}"
-            )
-        self.attempts = int(x)
+        self.attempts = planning_attempts(n)
 
     def set_max_velocity_scaling_factor(self, f: float) -> None:
         self.velocity_scaling = _factor(f, "velocity scaling factor")
@@ -166,12 +159,7 @@ class MoveGroup:
     def set_planner_id(self, planner_id: str) -> None:
         """The planner by MoveIt's name (``RRTConnectkConfigDefault``, …; an OMPL planner
         needs ``pip install ompl``), or "" for the native planner (checked when planning)."""
-        if not isinstance(planner_id, str):
-            raise PlanningError(
-                f'planner id must be a name (a string, "" for the native planner), '
-                f"got {planner_id!r}"
-            )
-        self.planner_id = planner_id
+        self.planner_id = planner_name(planner_id)
 
     # ------------------------------------------------------------------ targets
     def set_start_state(self, q: ArrayLike | None) -> None:

@@ -16,22 +16,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import GeometryError, number
+from robocell.errors import GeometryError, floats, number, vector
 
 FloatArray = NDArray[np.float64]
 
 
 def as_vector(value: ArrayLike, size: int, name: str) -> FloatArray:
-    """``value`` as a finite float vector of ``size`` entries, or a :class:`GeometryError`."""
-    try:
-        arr = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise GeometryError(f"{name} must be {size} numbers, got {value!r}") from exc
-    if arr.shape != (size,):
-        raise GeometryError(f"{name} must have {size} entries, got {arr.shape[0]}: {value!r}")
-    if not np.all(np.isfinite(arr)):
-        raise GeometryError(f"{name} has a NaN or infinite entry: {arr.tolist()}")
-    return arr
+    """``value`` as a finite float vector of ``size`` entries (flattened first), or a
+    :class:`GeometryError`: :func:`robocell.errors.vector` for geometry."""
+    return vector(floats(value, name, GeometryError).reshape(-1), size, name, GeometryError)
 
 
 def normalize_quaternion(quat_xyzw: ArrayLike, name: str = "quaternion") -> FloatArray:
@@ -197,10 +190,7 @@ class Pose:
     @classmethod
     def from_matrix(cls, T: ArrayLike) -> Pose:
         """Pose of a 4×4 homogeneous transform."""
-        try:
-            m = np.asarray(T, dtype=float)
-        except (TypeError, ValueError):
-            m = np.empty(0)  # not numbers: refused below
+        m = floats(T, "a transform", GeometryError)
         if m.shape != (4, 4) or not np.isfinite(m).all():
             raise GeometryError(f"a transform must be a finite 4x4 matrix, got shape {m.shape}")
         return cls._of_matrix(m)

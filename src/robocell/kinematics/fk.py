@@ -11,7 +11,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import ModelError
+from robocell.errors import ModelError, name_or
 from robocell.geometry.pose import invert_transform
 from robocell.kinematics import _kernels as K
 from robocell.robot.model import JointGroup, RobotModel
@@ -57,7 +57,7 @@ def _link(group: JointGroup, link: str | None) -> tuple[RobotModel, int]:
     robot = group.robot
     if robot is None:
         raise ModelError(f"group {group.name!r} is not attached to a robot model")
-    name = group.tip_link if link is None or (isinstance(link, str) and not link) else link
+    name = name_or(link, group.tip_link)
     if isinstance(name, str) and not name:
         raise ModelError(f"group {group.name!r} has no tip link; name the link to use")
     return robot, robot.link_index(name)

@@ -16,7 +16,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import IKError, ModelError
+from robocell.errors import IKError, ModelError, floats, name_or
 from robocell.geometry.pose import Pose, invert_transform, rotation_error
 from robocell.kinematics import _kernels as K
 from robocell.kinematics import analytic as A
@@ -71,10 +71,7 @@ def as_target(target: Pose | ArrayLike) -> NDArray[np.float64]:
     """A 4×4 target from a Pose or a 4×4 array (validated: finite, rigid)."""
     if isinstance(target, Pose):
         return target.matrix()
-    try:
-        T = np.asarray(target, dtype=float)
-    except (TypeError, ValueError):
-        T = np.empty(0)  # not numbers: refused below
+    T = floats(target, "an IK target (a Pose or a 4x4 matrix)", IKError)
     if T.shape != (4, 4):
         raise IKError(f"an IK target must be a Pose or a 4x4 matrix, got shape {T.shape}")
     # one sum proves every entry finite; np.allclose costs ten times this whole check
@@ -341,11 +338,7 @@ def ik_solver(group: JointGroup, tip_link: str | None = None) -> AnalyticIK | Nu
     robot = group.robot
     if robot is None:
         raise ModelError(f"group {group.name!r} is not attached to a robot model")
-    tip = (
-        group.tip_link
-        if tip_link is None or (isinstance(tip_link, str) and not tip_link)
-        else tip_link
-    )
+    tip = name_or(tip_link, group.tip_link)
     if not isinstance(tip, str):
         robot.link_index(tip, "IK tip link")  # refuses it, naming the links
     key = (group.name, tip)

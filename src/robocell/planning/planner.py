@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from robocell.errors import PlanningError, choices, number, vector
+from robocell.errors import PlanningError, choices, number, vector, whole
 from robocell.geometry.pose import Pose
 from robocell.kinematics.ik import NumericIK, NumericIKConfig, solve_ik
 from robocell.planning import _kernels as PK
@@ -601,25 +601,33 @@ def _radii(tries: int) -> NDArray[np.float64]:
 def _check_request(request: MotionPlanRequest) -> None:
     if not number(request.planning_time, "planning time [s]", PlanningError) > 0:
         raise PlanningError(f"planning time must be > 0 s, got {request.planning_time!r}")
-    attempts = number(request.attempts, "number of planning attempts", PlanningError)
-    if attempts < 1 or attempts != int(attempts):
-        raise PlanningError(
-            f"number of planning attempts must be a whole number >= 1, got {request.attempts!r}"
-        )
+    planning_attempts(request.attempts)
     for name in ("velocity_scaling", "acceleration_scaling"):
         v = getattr(request, name)
         what = f"{name.replace('_', ' ')} factor"
         if not 0 < number(v, what, PlanningError) <= 1:
             raise PlanningError(f"{what} must be in (0, 1], got {v!r}")
     if request.seed is not None:
-        seed = number(request.seed, "seed", PlanningError)
-        if seed != int(seed):
-            raise PlanningError(f"seed must be a whole number or None, got {request.seed!r}")
-    if not isinstance(request.planner_id, str):
+        whole(request.seed, "seed (or None)", PlanningError)
+    planner_name(request.planner_id)
+
+
+def planning_attempts(n: object) -> int:
+    """A number of planning attempts, or the PlanningError naming it."""
+    attempts = whole(n, "number of planning attempts", PlanningError)
+    if attempts < 1:
+        raise PlanningError(f"number of planning attempts must be >= 1, got {n!r}")
+    return attempts
+
+
+def planner_name(planner_id: object) -> str:
+    """A planner id as a request takes it (checked against the planners when planning), or
+    the PlanningError naming it."""
+    if not isinstance(planner_id, str):
         raise PlanningError(
-            f'planner id must be a name (a string, "" for the native planner), '
-            f"got {request.planner_id!r}"
+            f'planner id must be a name (a string, "" for the native planner), got {planner_id!r}'
         )
+    return planner_id
 
 
 def _pairs(checker: CollisionChecker, q: NDArray[np.float64]) -> str:

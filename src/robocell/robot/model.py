@@ -22,7 +22,7 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import ModelError, choices, unknown
+from robocell.errors import ModelError, choices, floats, unknown
 from robocell.geometry.pose import invert_transform
 from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere, bvh_arrays
 from robocell.robot.srdf import EndEffectorSpec, Srdf, load_srdf, parse_srdf
@@ -153,10 +153,7 @@ class JointGroup:
         if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._dof,):
             if math.isfinite(sum(q.tolist())):  # fast path: a NaN or an infinity poisons the sum
                 return q
-        try:
-            arr = np.asarray(q, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise ModelError(f"{name} for group {self.name!r} must be numbers, got {q!r}") from exc
+        arr = floats(q, f"{name} for group {self.name!r}", ModelError)
         if arr.shape != (self.dof,):
             raise ModelError(
                 f"{name} for group {self.name!r} must have {self.dof} entries "
@@ -177,10 +174,7 @@ class JointGroup:
                 # one configuration (a plan's start and goal checks: the general path below
                 # cost 10 µs of Python, measured)
                 return qs.reshape(1, self._dof)
-        try:
-            arr = np.asarray(qs, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise ModelError(f"{name} for group {self.name!r} must be numbers, got {qs!r}") from exc
+        arr = floats(qs, f"{name} for group {self.name!r}", ModelError)
         if arr.ndim == 1:
             arr = arr[None, :]
         if arr.ndim != 2 or arr.shape[1] != self.dof:

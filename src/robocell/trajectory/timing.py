@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import PlanningError
+from robocell.errors import PlanningError, floats
 from robocell.robot.model import JointGroup
 from robocell.trajectory.path import BlendedPath, SplinePath, SubPath
 from robocell.trajectory.trajectory import JointTrajectory, stationary
@@ -33,14 +33,6 @@ def _scaling(value: float, name: str) -> float:
     if not (isinstance(value, int | float) and 0.0 < value <= 1.0):
         raise PlanningError(f"{name} must be in (0, 1], got {value!r}")
     return float(value)
-
-
-def _waypoints(path: ArrayLike) -> NDArray[np.float64]:
-    """``path`` as a float array (shape checked by the caller), or a PlanningError."""
-    try:
-        return np.asarray(path, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise PlanningError(f"a path must be waypoints of numbers, got {path!r}") from exc
 
 
 def _limits(
@@ -93,7 +85,7 @@ def time_optimal(
     if isinstance(path, BlendedPath | SplinePath):
         bp = path
     else:
-        wp = _waypoints(path)
+        wp = floats(path, "a path's waypoints", PlanningError)
         if wp.ndim != 2 or wp.shape[1] != group.dof or not np.all(np.isfinite(wp)):
             raise PlanningError(
                 f"a path for group {group.name!r} must be finite (K, {group.dof}) waypoints, "
@@ -345,7 +337,7 @@ def jerk_limited(
 ) -> JointTrajectory:
     """Jerk-limited trajectory through ``waypoints`` (K, dof): a ruckig PTP per segment, each
     a straight line from rest to rest (the path is exactly the polyline)."""
-    wp = _waypoints(waypoints)
+    wp = floats(waypoints, "waypoints", PlanningError)
     if wp.ndim != 2 or wp.shape[1] != group.dof or not np.all(np.isfinite(wp)):
         raise PlanningError(f"waypoints must be (K, {group.dof}), got shape {wp.shape}")
     traj = stationary(group, wp[0])

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import PlanningError, number
+from robocell.errors import PlanningError, floats, number
 from robocell.robot.model import JointGroup
 
 
@@ -90,10 +90,7 @@ class JointTrajectory:
 
     def sample(self, t: ArrayLike) -> TrajectorySample:
         """States at times ``t`` (scalar or (M,)) [s], clamped to [0, duration]."""
-        try:
-            raw = np.atleast_1d(np.asarray(t, dtype=float))
-        except (TypeError, ValueError):
-            raw = np.array([np.nan])  # not numbers: refused below
+        raw = np.atleast_1d(floats(t, "sample times [s]", PlanningError))
         if raw.ndim != 1 or raw.shape[0] == 0 or not np.all(np.isfinite(raw)):
             raise PlanningError(f"sample times must be finite numbers [s], got {t!r}")
         ts = np.clip(raw, self.times[0], self.times[-1])
