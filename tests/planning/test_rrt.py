@@ -69,6 +69,30 @@ def test_compiled_search_adds_whole_edges_then_partial_ones(walled):
     assert short > 0 and differ > 0
 
 
+@pytest.mark.parametrize("compiled", [False, True])
+def test_shortcut_does_not_check_shortcuts_that_gain_too_little(walled, compiled):
+    """A random shortcut that would shorten its stretch of path by less than ``min_gain`` of
+    it is not checked: with a gain no shortcut can reach, the random tries check nothing and
+    the greedy passes alone make the path; with none asked, they check more and shorten it
+    more."""
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    warm_up(checker)
+    path = rrt_connect_compiled(
+        Edges(checker, 0.05), START, GOAL[None], arm.lower, arm.upper, Seeds(3), 1e18, 0.5
+    )
+    cut = shortcut_compiled if compiled else shortcut
+    runs = {}
+    for tries, gain in ((0, 0.0), (20, 1.0), (20, 0.0)):
+        edges = Edges(checker, 0.05)
+        runs[tries, gain] = cut(edges, path, Seeds(0), 1e18, tries, 10**6, gain), edges
+    (greedy, greedy_edges), (none, none_edges), (any_, any_edges) = runs.values()
+    assert np.array_equal(none, greedy)
+    assert none_edges.stats.states == greedy_edges.stats.states
+    assert any_edges.stats.states > none_edges.stats.states
+    assert _length(any_) < _length(none)
+
+
 def test_compiled_shortcut_stops_at_its_budget(walled):
     """The random shortcuts check at most ``budget`` states (the greedy passes aside): a
     deterministic cap, whatever the machine's load."""

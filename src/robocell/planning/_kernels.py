@@ -336,7 +336,7 @@ def _search_one(
     ``first_slot + i``, stamps from ``epochs[i]``), its results written into ``out``
     (:func:`_search_outputs`).
 
-    ``finish`` = (seed, deadline, tries, share, min_states, epoch): with tries > 0, a path
+    ``finish`` = (seed, deadline, tries, share, min_states, epoch, min_gain): with tries > 0, a path
     found is shortcut at once on this thread (:func:`shortcut` with these settings, stamps
     from ``epoch + i·2**40 / n`` of n searches). A search that finds its path first used to
     wait at the end of the race for the other to do as much work, 0.1–0.2 ms when the other's
@@ -347,13 +347,13 @@ def _search_one(
         start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
         epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
     )  # fmt: skip
-    seed, sc_deadline, tries, share, min_states, sc_epoch = finish
+    seed, sc_deadline, tries, share, min_states, sc_epoch, min_gain = finish
     if status == FOUND and tries > 0:
         budget = max(min_states, int(share * st[3]))
         stride = (1 << 40) // seeds.shape[0]
         short, sc = shortcut(
             path, seed, sc_deadline, resolution, model, scratch, sc_epoch + i * stride, tries,
-            budget, first_slot + i,
+            budget, first_slot + i, min_gain,
         )  # fmt: skip
         if short.shape[0] <= paths.shape[1]:
             path = short
@@ -402,12 +402,15 @@ def _skip_waypoints(path, resolution, model, sc, epoch, buf, stats, deadline):  
 
 
 @njit(cache=True)
-def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries, budget, slot):  # type: ignore[no-untyped-def]
+def shortcut(
+    path, seed, deadline, resolution, model, scratch, epoch, max_tries, budget, slot, min_gain
+):  # type: ignore[no-untyped-def]
     """:func:`robocell.planning.rrt.shortcut` compiled: greedy waypoint skipping, random
     shortcuts between points on the path (at most ``max_tries``, until 12 fail in a row or
-    ``budget`` states are checked), greedy again if they changed the path; repeated waypoints
-    dropped. Checks on scratch slot ``slot``. Returns the path and stats (2: epochs used,
-    3: states checked)."""
+    ``budget`` states are checked; one that would shorten the stretch it replaces by less than
+    the share ``min_gain`` is not checked, and fails), greedy again if they changed the path;
+    repeated waypoints dropped. Checks on scratch slot ``slot``. Returns the path and stats
+    (2: epochs used, 3: states checked)."""
     np.random.seed(seed)  # noqa: NPY002 (numba's generator)
     dof = path.shape[1]
     stats = np.zeros(4, np.int64)
@@ -442,7 +445,7 @@ def shortcut(path, seed, deadline, resolution, model, scratch, epoch, max_tries,
         l2 = max(cum[i2 + 1] - cum[i2], 1e-12)
         p1 = path[i1] + (path[i1 + 1] - path[i1]) * ((s1 - cum[i1]) / l1)
         p2 = path[i2] + (path[i2 + 1] - path[i2]) * ((s2 - cum[i2]) / l2)
-        if np.sqrt(np.sum((p2 - p1) ** 2)) > (s2 - s1) - 1e-6:
+        if np.sqrt(np.sum((p2 - p1) ** 2)) > (s2 - s1) - max(1e-6, min_gain * (s2 - s1)):
             fails += 1
             continue
         if _edge_free(p1, p2, resolution, model, sc, epoch, buf, stats):
@@ -501,13 +504,14 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
 def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
     first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_seed, shortcut_deadline,
-    shortcut_tries, shortcut_share, shortcut_min,
+    shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A plan's search in one call: the searches of
     :func:`robocell.planning.rrt.rrt_connect_compiled`, then (``shortcut_tries`` > 0) the
     winner's path shortened by :func:`shortcut` (seed ``shortcut_seed``, until
     ``shortcut_deadline``, checking at most ``shortcut_share`` of the states the search
-    checked and at least ``shortcut_min``).
+    checked and at least ``shortcut_min``; shortcuts that gain less than the share
+    ``shortcut_min_gain`` not checked).
 
     The searches: one per seed of ``seeds``, side by side on the kernel's threads
     (:func:`rrt_connect_many`) or one after the other (each later one stops once it has done
@@ -546,7 +550,7 @@ def plan_in(
         epochs[i] = epoch + (i << 40)
     finish = (
         shortcut_seed, shortcut_deadline, shortcut_tries, shortcut_share, shortcut_min,
-        epoch + (n << 40),
+        epoch + (n << 40), shortcut_min_gain,
     )  # fmt: skip
     if side_by_side:
         out = rrt_connect_many(
@@ -556,7 +560,9 @@ def plan_in(
     else:
         # one after the other, the shortcut once the winner is known (a search that found a
         # path may yet lose to a later one)
-        finish = (shortcut_seed, shortcut_deadline, 0, shortcut_share, shortcut_min, 0)
+        finish = (
+            shortcut_seed, shortcut_deadline, 0, shortcut_share, shortcut_min, 0, shortcut_min_gain
+        )  # fmt: skip
         out = _search_outputs(n, cap, dof)
         for i in range(n):
             _search_one(
@@ -575,18 +581,18 @@ def plan_in(
         budget = max(shortcut_min, int(shortcut_share * stats[best, 3]))
         path, st = shortcut(
             path, shortcut_seed, shortcut_deadline, resolution, model, scratch, epoch + (n << 40),
-            shortcut_tries, budget, first_slot,
+            shortcut_tries, budget, first_slot, shortcut_min_gain,
         )  # fmt: skip
         shortcut_states = st[3]
     return path, statuses[best], stats[best].copy(), shortcut_states
 
 
 @njit(cache=True)
-def shortcut_in(path, seed, deadline, resolution, inputs, epoch, max_tries, budget):  # type: ignore[no-untyped-def]
+def shortcut_in(path, seed, deadline, resolution, inputs, epoch, max_tries, budget, min_gain):  # type: ignore[no-untyped-def]
     """:func:`shortcut` on a KernelInputs."""
     return shortcut(
         path, seed, deadline, resolution, inputs.model, inputs.scratch, epoch, max_tries, budget,
-        np.int64(0),
+        np.int64(0), min_gain,
     )  # fmt: skip
 
 

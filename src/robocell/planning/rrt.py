@@ -213,6 +213,7 @@ class Finish:
     tries: int = 0
     share: float = 0.5
     min_states: int = 100
+    min_gain: float = 0.0
 
 
 def rrt_connect_compiled(
@@ -294,7 +295,7 @@ def rrt_connect_compiled(
             start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
             next_epoch((searches + 1) << 40), cap, first_slot, box_margin, box_share,
             whole_for, side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
-            finish.min_states,
+            finish.min_states, float(finish.min_gain),
         )  # fmt: skip
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
@@ -331,6 +332,7 @@ def shortcut_compiled(
     deadline: float,
     max_tries: int = 40,
     budget: int | None = None,
+    min_gain: float = 0.0,
 ) -> NDArray[np.float64]:
     """:func:`shortcut` compiled whole on the collision kernel (one call instead of one per
     edge). A state the kernel leaves unsure blocks its edge (the shortcut is not taken)."""
@@ -344,6 +346,7 @@ def shortcut_compiled(
         next_epoch(1 << 40),
         max_tries,
         (1 << 62) if budget is None else int(budget),
+        float(min_gain),
     )
     edges.stats.states += int(stats[3])
     return out  # type: ignore[no-any-return]
@@ -378,8 +381,9 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
             q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
             inputs, next_epoch((SEARCH_SLOTS + 1) << 40), 16,
             scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, 40, side_by_side, 0, 0.0, 1, 0.5, 1,
+            0.0,
         )  # fmt: skip
-    PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1)
+    PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1, 0.0)
     _WARM[0] = not searches_only
 
 
@@ -407,12 +411,15 @@ def shortcut(
     deadline: float,
     max_tries: int = 40,
     budget: int | None = None,
+    min_gain: float = 0.0,
 ) -> NDArray[np.float64]:
     """A shorter path: greedy removal of waypoints that can be skipped, then random shortcuts
     between points on the path (OMPL's shortcutPath), then greedy again if they changed it.
     Every new edge is checked. ``budget``: the most states the random shortcuts may check (the
     greedy passes are not counted): a deterministic cap, so that a plan's cost does not
-    depend on the machine's load."""
+    depend on the machine's load. ``min_gain``: a random shortcut that would shorten the
+    stretch of path it replaces by less than this share of it is not checked (a failed try):
+    near a gentle bend every shortcut is free and checked whole, for almost no gain."""
     gen = generator_of(rng)
     path = _skip_waypoints(edges, path, deadline)
     stop_at = None if budget is None else edges.stats.states + budget
@@ -438,7 +445,7 @@ def shortcut(
         p1 = path[i1] + (path[i1 + 1] - path[i1]) * ((s1 - cum[i1]) / max(seg_len[i1], 1e-12))
         p2 = path[i2] + (path[i2 + 1] - path[i2]) * ((s2 - cum[i2]) / max(seg_len[i2], 1e-12))
         old = s2 - s1
-        if np.linalg.norm(p2 - p1) > old - 1e-6:
+        if np.linalg.norm(p2 - p1) > old - max(1e-6, min_gain * old):
             fails += 1
             continue
         if edges.free(p1, p2):
