@@ -67,7 +67,7 @@ class PlannerConfig:
     problems each, the executed paths sampled at 1 mrad, session 22): 16 of 280 paths pass
     into an obstacle between two checked states, by 0.02–1.97 mm, mostly with a finger (a
     step of 0.01 rad moves some point of a Panda by 6–16 mm); 17 of 280 with the shortcut
-    settings of session 21."""
+    settings of session 21 (``benchmarks/bench_final_check.py``)."""
 
     # 0.07 rather than 0.05: the search and shortcuts check 30 % fewer states, and what
     # that steps over the final check finds and a detour mends (cheap since session 11).
