@@ -18,9 +18,8 @@ import time
 
 import numpy as np
 
-from robocell.apps.bench_planning import default_mbm_dir, load_robot
+from robocell.apps.bench_planning import default_mbm_dir, load_robot, set_problems
 from robocell.planning import JointGoal, MotionPlanRequest, Planner, PlannerConfig
-from robocell.scene.moveit_yaml import load_request, load_scene
 
 CONFIGS = {"robocell": PlannerConfig(), "threads always": PlannerConfig(threads=True)}
 
@@ -41,11 +40,8 @@ def main() -> None:
     print(f"{'robot':6} {'set':11} {'before':7} {'planner':15} {'median ms':>10} {'ratio':>7}")
     for robot in ("panda", "ur5"):
         model = load_robot(mbm, robot)
-        folder = mbm / robot / "problems" / f"table_pick_{robot}"
         problems = []
-        for k in range(1, args.limit + 1):
-            scene = load_scene(model, folder / f"scene{k:04d}.yaml")
-            req = load_request(model, folder / f"request{k:04d}.yaml", scene)
+        for k, scene, req in set_problems(mbm, model, robot, "table_pick", args.limit):
             request = MotionPlanRequest(
                 req.group, JointGoal(req.goal), start=req.start, seed=k, time_parameterize=False
             )

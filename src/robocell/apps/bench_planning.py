@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -33,7 +34,8 @@ from robocell.errors import PlanningError, RobocellError, unknown
 from robocell.planning import JointGoal, MotionPlanRequest, Planner, PlannerConfig
 from robocell.planning.rrt import warm_up
 from robocell.robot.model import RobotModel
-from robocell.scene.moveit_yaml import load_request, load_scene
+from robocell.scene.moveit_yaml import PlanRequest, load_request, load_scene
+from robocell.scene.planning_scene import PlanningScene
 
 # baseline name -> OMPL planner, how its callback checks a state, whether OMPL simplifies
 BASELINES = {
@@ -104,6 +106,18 @@ def load_robot(mbm: Path, robot: str) -> RobotModel:
     return RobotModel.from_urdf(d / f"{robot}.urdf", d / f"{robot}.srdf", package_dirs=[d])
 
 
+def set_problems(
+    mbm: Path, model: RobotModel, robot: str, set_name: str, limit: int
+) -> Iterator[tuple[int, PlanningScene, PlanRequest]]:
+    """The first ``limit`` problems of a MotionBenchMaker set, loaded one at a time: (their
+    number, the scene, the request)."""
+    folder = mbm / robot / "problems" / f"{set_name}_{robot}"
+    for scene_path in sorted(folder.glob("scene*.yaml"))[:limit]:
+        k = int(scene_path.stem.removeprefix("scene"))
+        scene = load_scene(model, scene_path)
+        yield k, scene, load_request(model, folder / f"request{k:04d}.yaml", scene)
+
+
 def run_set(
     mbm: Path,
     model: RobotModel,
@@ -114,13 +128,8 @@ def run_set(
     timeout: float,
     seed: int,
 ) -> dict[str, SetRow]:
-    folder = mbm / robot / "problems" / f"{set_name}_{robot}"
-    scenes = sorted(folder.glob("scene*.yaml"))[:limit]
     results: dict[str, list[ProblemResult]] = {p: [] for p in planners}
-    for scene_path in scenes:
-        k = int(scene_path.stem.removeprefix("scene"))
-        scene = load_scene(model, scene_path)
-        req = load_request(model, folder / f"request{k:04d}.yaml", scene)
+    for k, scene, req in set_problems(mbm, model, robot, set_name, limit):
         group = model.group(req.group)
         checker = scene.checker(group)
         warm_up(checker)  # compiling the search once per process is not planning
