@@ -17,7 +17,7 @@ from __future__ import annotations
 import argparse
 
 from robocell.apps.bench_planning import default_mbm_dir, load_robot, set_problems
-from robocell.planning import JointGoal, MotionPlanRequest, Planner
+from robocell.planning import JointGoal, MotionPlanRequest, Planner, PlannerConfig
 from robocell.trajectory import BlendedPath
 
 SETS = "table_pick,table_under_pick,box,bookshelf_small,bookshelf_tall,bookshelf_thin,cage"
@@ -29,9 +29,16 @@ def main() -> None:
     ap.add_argument("--sets", default=SETS)
     ap.add_argument("--limit", type=int, default=20, help="problems per set (first N)")
     ap.add_argument("--step", type=float, default=0.001, help="sampling of the paths [rad]")
+    ap.add_argument(
+        "--continuous", action="store_true", help="plan with PlannerConfig(continuous=True)"
+    )
     args = ap.parse_args()
+    config = PlannerConfig(continuous=args.continuous)
     mbm = default_mbm_dir()
-    print(f"paths sampled every {args.step} rad, first {args.limit} problems per set")
+    print(
+        f"paths sampled every {args.step} rad, first {args.limit} problems per set, "
+        f"continuous check {'on' if args.continuous else 'off'}"
+    )
     header = f"{'robot':6} {'set':17} {'paths':>5} {'collide':>7} {'deepest mm':>10}  pairs"
     print(header)
     print("-" * len(header))
@@ -46,7 +53,7 @@ def main() -> None:
                 checker = scene.checker(req.group)
                 goal = JointGoal(req.goal)
                 request = MotionPlanRequest(req.group, goal, start=req.start, seed=k)
-                plan = Planner(scene).plan(request)
+                plan = Planner(scene, config).plan(request)
                 if not plan.success:
                     continue
                 n += 1

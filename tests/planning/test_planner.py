@@ -337,3 +337,27 @@ def test_ompl_motion_validator_checks_per_joint_steps_and_stops_at_a_collision()
     b[0] = 0.6  # 12 steps; the end is free, the wall is crossed
     assert not validator.checkMotion(a, b)
     assert wall <= seen[-1][0] <= 0.3 and len(seen) < 12  # stopped at the first collision
+
+
+def test_the_continuous_check_keeps_a_plan_off_the_wall_between_checked_states(walled):
+    """With the shortcut's least gain on, the Python search's plan past the wall (seed 0)
+    skims the wall by 0.12 mm between two states the discrete final check found free; with
+    PlannerConfig(continuous=True) the executed path is proven free, and a dense exact
+    sampling agrees."""
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    request = MotionPlanRequest("arm", JointGoal(GOAL), start=START, seed=0)
+
+    def dense(plan):
+        path = BlendedPath(plan.path, plan.stats["corner_deviation"])
+        return path, path(np.linspace(0.0, path.length, int(path.length / 2e-4) + 2))
+
+    base = dict(compiled=False, shortcut_tries=40, shortcut_min_gain=0.02)
+    discrete = Planner(walled, PlannerConfig(**base)).plan(request)
+    assert discrete.success and checker.check_exact(dense(discrete)[1]).any()
+    plan = Planner(walled, PlannerConfig(**base, continuous=True)).plan(request)
+    _assert_valid(walled, arm, plan)
+    path, states = dense(plan)
+    assert not checker.check_exact(states).any()
+    assert checker.swept(PlannerConfig().continuous_tolerance).check_path(path).free
+    assert plan.stats["swept_tests"] > 0

@@ -53,6 +53,11 @@ def main(argv: list[str] | None = None) -> int:
     bp.add_argument("--json", help="write every problem's figures to this file")
     bp.add_argument("--mbm", help="folder holding ur5/ and panda/ (default: ../shared/bench/mbm)")
     bp.add_argument("--seed", type=int, default=0)
+    bp.add_argument(
+        "--continuous",
+        action="store_true",
+        help="every planner's path proven free by the continuous check (PlannerConfig)",
+    )
     args = parser.parse_args(argv)
     try:
         if args.command in ("info", "demo", "run"):
@@ -90,6 +95,7 @@ def main(argv: list[str] | None = None) -> int:
                 args.json,
                 args.mbm,
                 args.seed,
+                args.continuous,
             )
         parser.print_help()
         return 2

@@ -47,6 +47,7 @@ from robocell.scene.spheres import (
 
 if TYPE_CHECKING:
     from robocell.scene.planning_scene import PlanningScene
+    from robocell.scene.swept import SweptCheck
 
 
 CHUNK = 64  # states per kernel task; a batch of at most one chunk runs in the calling thread
@@ -963,6 +964,7 @@ class CollisionChecker:
         self._exact = None
         self._broadphase: tuple[Any, Any] | None = None
         self._full_exact = None
+        self._swept: dict[float, SweptCheck] = {}
         self.static_collisions = self._static_collisions()
 
     @staticmethod
@@ -1514,6 +1516,17 @@ class CollisionChecker:
             obstacles = [(coal_geometry(sh), T) for sh, T in self._obstacle_shapes]
             self._coal = (bodies, obstacles)
         return self._coal
+
+    def swept(self, tolerance: float | None = None) -> SweptCheck:
+        """The continuous check of paths in this checker's scene (:mod:`robocell.scene.swept`),
+        to ``tolerance`` [m] (default: swept.TOLERANCE); made once per tolerance."""
+        from robocell.scene.swept import TOLERANCE, SweptCheck
+
+        tol = TOLERANCE if tolerance is None else tolerance
+        check = self._swept.get(tol)
+        if check is None:
+            check = self._swept[tol] = SweptCheck(self, tolerance=tol)
+        return check
 
     def kernel_inputs(self) -> tuple[tuple[Any, ...], tuple[NDArray[Any], ...]]:
         """(model, scratch) for compiled code that calls the kernel itself (the compiled

@@ -162,6 +162,20 @@ class BlendedPath(_ArcLengthPath):
                     out[m] = (-cos_t * e1 - sin_t * e2) / r[0]
         return out[0] if scalar else out
 
+    def speed_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(starts (S + 1,), bounds (S, dof)): the arc lengths where the path's S pieces
+        (segments and arcs) start, and how fast each joint moves at most along each, per unit
+        of arc length: |u_j| on a segment of direction u; on an arc, where the direction is
+        −sin θ e1 + cos θ e2, at most √(e1_j² + e2_j²)."""
+        bounds = np.empty((len(self._kinds), self._dof))
+        for k, kind in enumerate(self._kinds):
+            if kind == 0:
+                bounds[k] = np.abs(self._data[k][1])
+            else:
+                _, e1, e2, _, _ = self._data[k]
+                bounds[k] = np.hypot(e1, e2)
+        return self._starts.copy(), bounds
+
     def sample_states(self, resolution: float, arcs_only: bool = False) -> NDArray[np.float64]:
         """Points along the path (M, dof), consecutive ones at most ``resolution`` apart in
         every joint (a collision check of the path checks these). ``arcs_only``: the rounded
