@@ -94,3 +94,21 @@ def test_collinear_waypoints_need_no_rounding():
         t = (states - a) @ d / (d @ d)
         assert np.allclose(states, a + t[:, None] * d, atol=1e-9)
         assert np.allclose(states[-1], a + 2 * d)
+
+
+def test_points_on_known_pieces_and_speed_bounds(waypoints):
+    """``at(s, piece)`` is ``path(s)``; along each piece no joint moves faster than its
+    bound per unit of arc length (finite differences); on the straight pieces the bound is
+    the speed."""
+    path = BlendedPath(waypoints, 0.1)
+    starts, bounds = path.speed_bounds()
+    assert starts[0] == 0.0 and np.isclose(starts[-1], path.length)
+    s = np.linspace(0.0, path.length, 2001)
+    piece = np.clip(np.searchsorted(starts, s, side="right") - 1, 0, len(bounds) - 1)
+    assert np.allclose(path.at(s, piece), path(s), atol=1e-12)
+    for k in range(len(bounds)):
+        ss = np.linspace(starts[k], starts[k + 1], 400)
+        rate = np.abs(np.diff(path(ss), axis=0)) / np.diff(ss)[:, None]
+        assert np.all(rate <= bounds[k] + 1e-9)
+        if k % 2 == 0:  # a straight piece (they alternate with the arcs here)
+            assert np.allclose(rate, bounds[k], atol=1e-9)

@@ -29,6 +29,7 @@ from robocell.scene._kernels import (
     GJK_FREE,
     INV_TWO_PI,
     MAX_VISITS,
+    NRT_OFF,
     OBS_BOX,
     OBS_CYLINDER,
     OBS_TRIANGLE,
@@ -61,22 +62,21 @@ def _grown(kind, dims, pad, out):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def _body_near_obstacle(
     b, nodes, left, right, body_root, TB, W, stamp, cur, kind, To, dims, pad, stack, exact,
-    seen, tag, pieces,
+    seen, tag, pieces, big, tri, Tp,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Whether body b, grown by ``pad`` [m], may touch the obstacle (False: proven clear).
     ``exact``: (field_kind, prim_start, prim_kind, prim_T, prim_dims, body_mesh,
     node_tri_start, node_tri_ids, tri_V, tri_sphere) of the checker's model: where grown
     leaves touch, the body's pieces are tested against the obstacle grown by the pad, if
-    ``pieces`` (else a touching leaf is the answer)."""
+    ``pieces`` (else a touching leaf is the answer). ``big`` (3,), ``tri`` and ``Tp`` (3×4):
+    work arrays."""
     (
         field_kind, prim_start, prim_kind, prim_T, prim_dims, body_mesh, node_tri_start,
         node_tri_ids, tri_V, tri_sphere,
     ) = exact  # fmt: skip
-    big = np.empty(3)
     _grown(kind, dims, pad, big)
     R = TB[b, :, :3]
     t = TB[b, :, 3]
-    tri = np.empty((3, 4))
     tests = 0
     sp = 1
     stack[0] = body_root[b]
@@ -97,7 +97,6 @@ def _body_near_obstacle(
             return True
         if field_kind[b] == FIELD_PRIMITIVES:
             # the body's solids, each against the grown obstacle, once
-            Tp = np.empty((3, 4))
             for p in range(prim_start[b], prim_start[b + 1]):
                 _placed(TB, b, prim_T[p], Tp)
                 if gjk_intersect(prim_kind[p], Tp, prim_dims[p], kind, To, big) != GJK_FREE:
@@ -169,53 +168,139 @@ def _trees_near(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, pad, stack)
     return False
 
 
+@njit(cache=True, inline="always")
+def _cells(q, moving, half, v, n):  # type: ignore[no-untyped-def]
+    """(first cell, count) of variable v's cells (n over 2π) within ``half`` [rad] of q[v]
+    if it moves, else its one cell (as K._table_value indexes them)."""
+    h = half if moving[v] else 0.0
+    x = (q[v] - h) * INV_TWO_PI
+    x = (x - math.floor(x)) * n
+    i0 = min(int(x), n - 1)
+    i1 = int(math.floor(x + 2.0 * h * INV_TWO_PI * n * (1.0 + 1e-9) + 1e-9))
+    return i0, min(i1 - i0 + 1, n)
+
+
 @njit(cache=True)
 def _table_free_around(q, moving, half, ti, table_vars, table_n, table_off, table_values):  # type: ignore[no-untyped-def]
     """Whether table ti says FREE in every cell within ``half`` [rad] of q in each of its
-    moving variables (the cells as K._table_value indexes them), at most TABLE_CELLS cells."""
+    moving variables (one to three), at most TABLE_CELLS cells."""
     n = table_n[ti]
-    first = np.zeros(3, np.int64)
-    count = np.ones(3, np.int64)
-    nv = 0
-    total = 1
-    for c in range(3):
-        v = table_vars[ti, c]
-        if v < 0:
-            break
-        nv += 1
-        h = half if moving[v] else 0.0
-        x = (q[v] - h) * INV_TWO_PI
-        x = (x - math.floor(x)) * n
-        i0 = min(int(x), n - 1)
-        i1 = int(math.floor(x + 2.0 * h * INV_TWO_PI * n * (1.0 + 1e-9) + 1e-9))
-        first[c] = i0
-        count[c] = min(i1 - i0 + 1, n)
-        total *= count[c]
-    if total > TABLE_CELLS:
+    f0, c0 = _cells(q, moving, half, table_vars[ti, 0], n)
+    f1, c1, f2, c2 = 0, 1, 0, 1
+    nv = 1
+    if table_vars[ti, 1] >= 0:
+        f1, c1 = _cells(q, moving, half, table_vars[ti, 1], n)
+        nv = 2
+        if table_vars[ti, 2] >= 0:
+            f2, c2 = _cells(q, moving, half, table_vars[ti, 2], n)
+            nv = 3
+    if c0 * c1 * c2 > TABLE_CELLS:
         return False
     off = table_off[ti]
-    for m in range(total):
-        idx = 0
-        r = m
-        for c in range(nv):
-            step = r % count[c]
-            r //= count[c]
-            idx = idx * n + (first[c] + step) % n
-        cell = off + idx
-        if (table_values[cell >> 2] >> ((cell & 3) << 1)) & 3 != TABLE_FREE:
-            return False
+    for i in range(c0):
+        for j in range(c1):
+            for k in range(c2):
+                idx = (f0 + i) % n
+                if nv > 1:
+                    idx = idx * n + (f1 + j) % n
+                if nv > 2:
+                    idx = idx * n + (f2 + k) % n
+                cell = off + idx
+                if (table_values[cell >> 2] >> ((cell & 3) << 1)) & 3 != TABLE_FREE:
+                    return False
     return True
 
 
 @njit(cache=True)
-def clear_with_pads(qs, half, model, scratch, epoch, body_rate, pair_rate, pieces_below):  # type: ignore[no-untyped-def]
-    """(N,) bool: True where, at configuration qs[s] (group variables), every world pair's
-    body grown by ``half[s] * body_rate[s, body]`` [m] is proven clear of its obstacle, and
-    every self pair's bodies farther apart than ``half[s] * pair_rate[s, pair]``, or its table FREE
-    over every cell within ``half[s]`` [rad] of qs[s]. A body's pieces are tested only
+def _pads(
+    b, T, TB, nodes, body_root, W, stamp, cur, chain, revolute, child, axis, w, tail, hh,
+    contrib,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Body b's pad [m] over a part of half length ``hh`` [rad] around the configuration whose
+    link poses are T: Σ over the joints k on its chain (``chain[b]``, from the body towards
+    the root) of w_k (d_k + hh·tail_k), where w_k bounds the joint's speed, d_k is how far the
+    body's bounding sphere reaches from the joint's axis here, and hh·tail_k bounds how much
+    farther the joints below k can take it within the part (a joint's own turn keeps the
+    distance to its axis). A prismatic joint moves the body w_k. Each term goes to
+    ``contrib[b]`` (for the self pairs), the sum times hh is returned."""
+    r0 = body_root[b]
+    _centre(r0, b, TB, nodes, W, stamp, cur)
+    cx, cy, cz, rb = W[r0, 0], W[r0, 1], W[r0, 2], nodes[r0, 3]
+    total = 0.0
+    for i in range(chain.shape[1]):
+        k = chain[b, i]
+        if k < 0:
+            break
+        wk = w[k]
+        if wk == 0.0:
+            contrib[b, i] = 0.0
+            continue
+        if revolute[k]:
+            L = child[k]
+            ax = T[L, 0, 0] * axis[k, 0] + T[L, 0, 1] * axis[k, 1] + T[L, 0, 2] * axis[k, 2]
+            ay = T[L, 1, 0] * axis[k, 0] + T[L, 1, 1] * axis[k, 1] + T[L, 1, 2] * axis[k, 2]
+            az = T[L, 2, 0] * axis[k, 0] + T[L, 2, 1] * axis[k, 1] + T[L, 2, 2] * axis[k, 2]
+            dx, dy, dz = cx - T[L, 0, 3], cy - T[L, 1, 3], cz - T[L, 2, 3]
+            ex = dy * az - dz * ay
+            ey = dz * ax - dx * az
+            ez = dx * ay - dy * ax
+            c = wk * (math.sqrt(ex * ex + ey * ey + ez * ez) + rb + hh * tail[b, i])
+        else:
+            c = wk
+        contrib[b, i] = c
+        total += c
+    return hh * total
+
+
+@njit(cache=True)
+def clear_with_pads(
+    qs, half, part, model, scratch, epoch, speed, tail, chain, revolute, own_a, own_b,
+    body_rate, pair_rate, pieces_below,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """(N,) bool: True where, at configuration qs[s] (group variables), the middle of a part
+    of the path of half length ``half[s]`` [rad] on path piece ``part[s]``, every world pair's
+    body grown by its pad is proven clear of its obstacle, and every self pair's bodies
+    farther apart than their pads, or its table FREE over every cell within ``half[s]`` of
+    qs[s] (:func:`_pads`: ``speed[piece]`` (J,) bounds each tree joint's speed on the piece,
+    ``tail[piece]`` (B, C) the speeds of the joints below each chain joint times how far they
+    move the body; ``chain`` (B, C) the group's joints from each body to the root, −1 after;
+    ``own_a``/``own_b`` (P, C): which of the chain joints of a self pair's first and second
+    body the other's chain lacks), and at most ``half[s]`` times ``body_rate[piece]`` (B,) and
+    ``pair_rate[piece]`` (P,), bounds that hold everywhere. A body's pieces are tested only
     when its pad is below ``pieces_below`` [m] (larger pads leave pieces farther than a
     leaf's size apart, which are the cheaper to halve). ``model``: the checker's
     (K.MODEL_FIELDS); stamps from ``epoch``; scratch slot 0."""
+    group_idx = model[0]
+    moving = np.zeros(model[1].shape[0], np.bool_)
+    for i in range(group_idx.shape[0]):
+        moving[group_idx[i]] = True
+    B = model[12].shape[0]
+    work = (
+        np.empty(B, np.int8),  # per body: grown sphere clear of the world (1), not (0), unasked
+        np.empty(B),  # per body: its pad
+        np.zeros(chain.shape),  # per body and chain joint: its share of the pad (_pads)
+        np.empty(3),
+        np.empty((3, 4)),
+        np.empty((3, 4)),
+        moving,
+    )
+    out = np.zeros(qs.shape[0], np.bool_)
+    _clear_states(
+        qs, half, part, model, scratch, epoch, speed, tail, chain, revolute, own_a, own_b,
+        body_rate, pair_rate, pieces_below, _range_buffers(model), work, out,
+    )  # fmt: skip
+    return out
+
+
+# Compiled without numba's reference counting, as K._classify_range is (and for the same
+# reason: counting the references to the arrays passed to the helpers, for each pair of each
+# state, cost more than the tests; measured 3.8 against 1.5 µs a state): it allocates nothing.
+@njit(cache=True, **NRT_OFF)
+def _clear_states(
+    qs, half, part, model, scratch, epoch, speed, tail, chain, revolute, own_a, own_b,
+    body_rate, pair_rate, pieces_below, buffers, work, out,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """:func:`clear_with_pads`' loop over the states, into ``out``."""
     group_idx, q_base, joints, root, parent, child, origin, jtype, axis, var, mult, offset = model[
         :12
     ]
@@ -228,17 +313,14 @@ def clear_with_pads(qs, half, model, scratch, epoch, body_rate, pair_rate, piece
     group_start, _, group_count = model[50:53]
     world_frame, world_dims, world_values = model[-3], model[-2], model[-1]
     W, stamp, _, _, seen, _, T = _slot(scratch, 0)
-    TB, q, stack, stack2, _, _, _, plain = _range_buffers(model)
-    moving = np.zeros(q.shape[0], np.bool_)
-    for i in range(group_idx.shape[0]):
-        moving[group_idx[i]] = True
+    TB, q, stack, stack2, _, _, _, plain = buffers
+    clear, pad, contrib, big, tri, Tp, moving = work
     B = body_link.shape[0]
-    # per body: its grown bounding sphere clear of the whole world (1), not (0), not asked (−1)
-    clear = np.empty(B, np.int8)
     N = qs.shape[0]
-    out = np.zeros(N, np.bool_)
     for s in range(N):
         cur = epoch + s
+        hh = half[s]
+        p = part[s]
         for i in range(group_idx.shape[0]):
             q[group_idx[i]] = qs[s, i]
         fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
@@ -249,37 +331,44 @@ def clear_with_pads(qs, half, model, scratch, epoch, body_rate, pair_rate, piece
                 for i in range(3):
                     for j in range(4):
                         TB[b, i, j] = L[i, j]
-                continue
-            for i in range(3):
-                for j in range(4):
-                    TB[b, i, j] = (
-                        L[i, 0] * body_T[b, 0, j]
-                        + L[i, 1] * body_T[b, 1, j]
-                        + L[i, 2] * body_T[b, 2, j]
-                        + (L[i, 3] if j == 3 else 0.0)
-                    )
+            else:
+                for i in range(3):
+                    for j in range(4):
+                        TB[b, i, j] = (
+                            L[i, 0] * body_T[b, 0, j]
+                            + L[i, 1] * body_T[b, 1, j]
+                            + L[i, 2] * body_T[b, 2, j]
+                            + (L[i, 3] if j == 3 else 0.0)
+                        )
+        for b in range(B):
+            pad[b] = min(
+                hh * body_rate[p, b],
+                _pads(
+                    b, T, TB, nodes, body_root, W, stamp, cur, chain, revolute, child, axis,
+                    speed[p], tail[p], hh, contrib,
+                ),
+            )  # fmt: skip
         free = True
         for k in range(world_pairs.shape[0]):
             b, o = world_pairs[k, 0], world_pairs[k, 1]
-            pad = half[s] * body_rate[s, b]
             r0 = body_root[b]
             if clear[b] < 0:
-                _centre(r0, b, TB, nodes, W, stamp, cur)
                 clear[b] = _world_clear(
-                    W[r0, 0], W[r0, 1], W[r0, 2], nodes[r0, 3] + pad, world_frame, world_dims,
-                    world_values,
+                    W[r0, 0], W[r0, 1], W[r0, 2], nodes[r0, 3] + pad[b], world_frame,
+                    world_dims, world_values,
                 )  # fmt: skip
             if clear[b] == 1:
                 continue
             dx = W[r0, 0] - obs_sphere[o, 0]
             dy = W[r0, 1] - obs_sphere[o, 1]
             dz = W[r0, 2] - obs_sphere[o, 2]
-            rr = nodes[r0, 3] + pad + obs_sphere[o, 3]
+            rr = nodes[r0, 3] + pad[b] + obs_sphere[o, 3]
             if dx * dx + dy * dy + dz * dz > rr * rr:
                 continue
             if _body_near_obstacle(
                 b, nodes, left, right, body_root, TB, W, stamp, cur, obs_kind[o], obs_T[o],
-                obs_dims[o], pad, stack, exact, seen, cur * PAIR_TAGS + k, pad < pieces_below,
+                obs_dims[o], pad[b], stack, exact, seen, cur * PAIR_TAGS + k,
+                pad[b] < pieces_below, big, tri, Tp,
             ):  # fmt: skip
                 free = False
                 break
@@ -289,38 +378,47 @@ def clear_with_pads(qs, half, model, scratch, epoch, body_rate, pair_rate, piece
             if g >= 0 and group_table[g] >= 0:
                 # a body against a rigid cluster's members, tabulated together
                 if _table_free_around(
-                    q, moving, half[s], group_table[g], table_vars, table_n, table_off,
+                    q, moving, hh, group_table[g], table_vars, table_n, table_off,
                     table_values,
                 ):  # fmt: skip
                     k += group_count[g]
                     continue
             if pair_table[k] >= 0 and _table_free_around(
-                q, moving, half[s], pair_table[k], table_vars, table_n, table_off, table_values
+                q, moving, hh, pair_table[k], table_vars, table_n, table_off, table_values
             ):
                 k += 1
                 continue
             a, b = self_pairs[k, 0], self_pairs[k, 1]
-            pad = half[s] * pair_rate[s, k]
+            gap = 0.0
+            for i in range(chain.shape[1]):
+                if own_a[k, i]:
+                    gap += contrib[a, i]
+                if own_b[k, i]:
+                    gap += contrib[b, i]
+            gap = min(gap * hh, hh * pair_rate[p, k])
             ra, rb = body_root[a], body_root[b]
             _centre(ra, a, TB, nodes, W, stamp, cur)
             _centre(rb, b, TB, nodes, W, stamp, cur)
             dx = W[ra, 0] - W[rb, 0]
             dy = W[ra, 1] - W[rb, 1]
             dz = W[ra, 2] - W[rb, 2]
-            rr = nodes[ra, 3] + nodes[rb, 3] + pad
+            rr = nodes[ra, 3] + nodes[rb, 3] + gap
             if dx * dx + dy * dy + dz * dz > rr * rr:
                 k += 1
                 continue
-            if _trees_near(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, pad, stack2):
+            if _trees_near(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, gap, stack2):
                 free = False
             k += 1
         out[s] = free
-    return out
 
 
 @njit(cache=True)
-def clear_with_pads_in(qs, half, inputs, epoch, body_rate, pair_rate, pieces_below):  # type: ignore[no-untyped-def]
+def clear_with_pads_in(
+    qs, half, part, inputs, epoch, speed, tail, chain, revolute, own_a, own_b, body_rate,
+    pair_rate, pieces_below,
+):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`clear_with_pads` on a K.KernelInputs."""
     return clear_with_pads(
-        qs, half, inputs.model, inputs.scratch, epoch, body_rate, pair_rate, pieces_below
-    )
+        qs, half, part, inputs.model, inputs.scratch, epoch, speed, tail, chain, revolute,
+        own_a, own_b, body_rate, pair_rate, pieces_below,
+    )  # fmt: skip

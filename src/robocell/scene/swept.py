@@ -49,6 +49,9 @@ FIRST_PAD = 0.05
 TOLERANCE = 1e-5
 # [m] pads below which a grown leaf that touches an obstacle has the body's pieces tested
 PIECES_BELOW = 0.006
+# parts left unproven at a level beyond which their midpoints are checked exactly (see
+# SweptCheck.check_path)
+EXACT_AFTER = 32
 
 
 class MotionRadii(NamedTuple):
@@ -59,6 +62,8 @@ class MotionRadii(NamedTuple):
 
     joint: NDArray[np.float64]
     chain: NDArray[np.bool_]
+    # (B, C): the group's joints on each body's chain, from the body towards the root, −1 after
+    order: NDArray[np.int64]
 
     def per_variable(
         self, var: NDArray[np.int64], columns: NDArray[np.int64]
@@ -94,7 +99,9 @@ def motion_radii(checker: CollisionChecker) -> MotionRadii:
     travel = np.maximum(np.abs(checker.group.lower), np.abs(checker.group.upper))
     R = np.zeros((len(body_link), n_joints))
     chain = np.zeros((len(body_link), n_joints), np.bool_)
+    order = np.full((len(body_link), max(1, len(column))), -1, np.int64)
     for b in range(len(body_link)):
+        n_own = 0
         c = nodes[body_root[b]]
         centre = body_T[b, :3, :3] @ c[:3] + body_T[b, :3, 3]
         D = float(np.linalg.norm(centre) + c[3])
@@ -104,6 +111,9 @@ def motion_radii(checker: CollisionChecker) -> MotionRadii:
             v = int(t.var[k])
             col = column.get(v, -1)
             gain = abs(float(t.mult[k]))
+            if col >= 0 and t.type[k] in (REVOLUTE, PRISMATIC) and n_own < order.shape[1]:
+                order[b, n_own] = k
+                n_own += 1
             if t.type[k] == REVOLUTE and col >= 0:
                 R[b, k] = gain * D
             elif t.type[k] == PRISMATIC:
@@ -116,12 +126,13 @@ def motion_radii(checker: CollisionChecker) -> MotionRadii:
                     D += abs(float(t.offset[k]))
             D += float(np.linalg.norm(t.origin[k][:3, 3]))
             k = int(parent_joint[t.parent_link[k]])
-    return MotionRadii(R, chain)
+    return MotionRadii(R, chain, order)
 
 
 class SweptPath(Protocol):
     """A path in the group's joint space, parameterized by arc length ``s`` [rad] in
-    [0, length] (a BlendedPath is one): ``path(s)`` → (N, dof); ``speed_bounds()`` →
+    [0, length] (a BlendedPath is one): ``path(s)`` → (N, dof), ``path.at(s, piece)`` the
+    same for s known to lie on those pieces; ``speed_bounds()`` →
     (starts (S + 1,), bounds (S, dof)): along each of its S pieces (s from starts[i] to
     starts[i + 1]) no joint moves faster than its bound per unit of s."""
 
@@ -129,6 +140,8 @@ class SweptPath(Protocol):
     def length(self) -> float: ...
 
     def __call__(self, path_positions: ArrayLike, order: int = 0) -> NDArray[np.float64]: ...
+
+    def at(self, s: NDArray[np.float64], piece: NDArray[np.int64]) -> NDArray[np.float64]: ...
 
     def speed_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 
@@ -177,8 +190,26 @@ class SweptCheck:
         pairs = model[K.MODEL_FIELDS.index("self_pairs")]
         a, b = pairs[:, 0], pairs[:, 1]
         own = radii.chain[a] != radii.chain[b]
-        rel = MotionRadii(np.where(own, radii.joint[a] + radii.joint[b], 0.0), own)
+        rel = MotionRadii(np.where(own, radii.joint[a] + radii.joint[b], 0.0), own, radii.order)
         self.pair_radii = rel.per_variable(var, columns)
+        # what the kernel bounds the pads with at each configuration (SW._pads)
+        self._R = radii.joint
+        self._chain = radii.order
+        t = checker.robot.tree
+        self._revolute = np.asarray(t.type == REVOLUTE, np.bool_)
+        column = {int(v): i for i, v in enumerate(columns)}
+        self._joint_column = np.array([column.get(int(v), -1) for v in t.var], np.int64)
+        self._gain = np.abs(np.asarray(t.mult, float))
+        order = radii.order
+        n_pairs = len(pairs)
+        self._own_a = np.zeros((n_pairs, order.shape[1]), np.bool_)
+        self._own_b = np.zeros((n_pairs, order.shape[1]), np.bool_)
+        for p, (i, j) in enumerate(pairs):
+            for c in range(order.shape[1]):
+                if order[i, c] >= 0 and not radii.chain[j, order[i, c]]:
+                    self._own_a[p, c] = True
+                if order[j, c] >= 0 and not radii.chain[i, order[j, c]]:
+                    self._own_b[p, c] = True
         self.first_pad = first_pad
         self.tolerance = tolerance
         self.pieces_below = pieces_below
@@ -193,9 +224,19 @@ class SweptCheck:
         not proven free are halved, level after level."""
         starts, bounds = path.speed_bounds()
         lengths = np.diff(starts)
-        body = bounds @ self.body_radii.T  # (S, B) [m per rad of s]
-        pair = bounds @ self.pair_radii.T  # (S, P)
+        body = np.ascontiguousarray(bounds @ self.body_radii.T)  # (S, B) [m per rad of s]
+        pair = np.ascontiguousarray(bounds @ self.pair_radii.T)  # (S, P)
         fastest = np.maximum(body.max(axis=1, initial=0.0), pair.max(axis=1, initial=0.0))
+        # per piece: each tree joint's speed bound, and per body and chain joint, how fast
+        # the joints below it move the body (the kernel's pads: SW._pads)
+        col = self._joint_column
+        speed = np.where(col >= 0, bounds[:, np.maximum(col, 0)] * self._gain, 0.0)
+        chain = self._chain
+        valid = chain >= 0
+        k = np.maximum(chain, 0)
+        moved = np.where(valid, speed[:, k] * self._R[np.arange(len(chain))[:, None], k], 0.0)
+        tail = np.ascontiguousarray(np.cumsum(moved, axis=2) - moved)  # (S, B, C)
+        speed = np.ascontiguousarray(speed)
         # each piece in parts of equal length whose pads are at most first_pad
         step = np.where(fastest > 0, 2.0 * self.first_pad / np.maximum(fastest, 1e-300), np.inf)
         parts = np.where(lengths > 0, np.ceil(lengths / np.minimum(step, lengths + 1.0)), 0)
@@ -206,44 +247,60 @@ class SweptCheck:
             np.arange(len(seg)) - np.repeat(np.cumsum(parts) - parts, parts)
         )
         if len(seg) == 0:
-            return self._exact_at(path, np.array([0.0]), 0, 0)
+            return self._exact_at(path, np.array([0.0]), None, 0, 0)
         tests = exact = 0
+        first_parts = len(seg)
         inputs = self.checker.compiled_inputs
         for level in range(self.levels + 1):
             # the parts' pads are at most first_pad / 2^level
-            mids = s0 + 0.5 * h
-            qs = np.ascontiguousarray(path(mids))
+            qs = np.ascontiguousarray(path.at(s0 + 0.5 * h, seg))
             tests += len(qs)
             free = SW.clear_with_pads_in(
                 qs,
                 0.5 * h,
+                seg,
                 inputs,
                 next_epoch(len(qs)),
-                np.ascontiguousarray(body[seg]),
-                np.ascontiguousarray(pair[seg]),
+                speed,
+                tail,
+                chain,
+                self._revolute,
+                self._own_a,
+                self._own_b,
+                body,
+                pair,
                 self.pieces_below,
             )
             if free.all():
                 return SweptResult(True, 0.0, tests, exact)
-            # the parts left: their midpoints checked as they are (a path that collides is
-            # told at the level that first samples it, not after halving every part around)
             keep = ~free
             s0, h, seg = s0[keep], 0.5 * h[keep], seg[keep]
-            hit = self._exact_at(path, s0 + h, tests, exact)
-            exact = hit.exact
-            if not hit.free or level == self.levels:
-                return hit
+            if len(s0) > max(EXACT_AFTER, first_parts) or level == self.levels:
+                # the parts left checked as they are at their midpoints: at the last level,
+                # what the tolerance rests on; before, when more are left than the path had
+                # parts at first, as a path that collides leaves every part around the
+                # collision, twice as many each level
+                hit = self._exact_at(path, s0 + h, seg, tests, exact)
+                exact = hit.exact
+                if not hit.free or level == self.levels:
+                    return hit
             s0 = np.concatenate([s0, s0 + h])
             h = np.concatenate([h, h])
             seg = np.concatenate([seg, seg])
         raise AssertionError("unreachable: the last level returns")
 
     def _exact_at(
-        self, path: SweptPath, s: NDArray[np.float64], tests: int, exact: int
+        self,
+        path: SweptPath,
+        s: NDArray[np.float64],
+        seg: NDArray[np.int64] | None,
+        tests: int,
+        exact: int,
     ) -> SweptResult:
-        """The checker's own check of the configurations at arc lengths ``s``: free, or the
-        first (smallest s) that collides."""
-        hit = self.checker.check(np.ascontiguousarray(path(s)))
+        """The checker's own check of the configurations at arc lengths ``s`` (on pieces
+        ``seg``, if known): free, or the first (smallest s) that collides."""
+        qs = path(s) if seg is None else path.at(s, seg)
+        hit = self.checker.check(np.ascontiguousarray(qs))
         if hit.any():
             return SweptResult(False, float(s[hit].min()), tests, exact + len(s))
         return SweptResult(True, 0.0, tests, exact + len(s))

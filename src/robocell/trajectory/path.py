@@ -107,6 +107,7 @@ class BlendedPath(_ArcLengthPath):
                 lengths.append(float(r_[0] * al[0]))
         self._kinds = np.array(kinds)
         self._data = data
+        self._pieces: tuple[NDArray[np.float64], ...] | None = None  # at()'s arrays, once made
         self._starts = np.concatenate([[0.0], np.cumsum(lengths)])
         self._length = float(self._starts[-1])
         # boundaries where the curvature jumps: a time parameterization needs a gridpoint there
@@ -161,6 +162,34 @@ class BlendedPath(_ArcLengthPath):
                 else:
                     out[m] = (-cos_t * e1 - sin_t * e2) / r[0]
         return out[0] if scalar else out
+
+    def at(self, s: NDArray[np.float64], piece: NDArray[np.int64]) -> NDArray[np.float64]:
+        """(N, dof) positions at arc lengths ``s`` (N,) that lie on pieces ``piece`` (N,)
+        (the pieces of :meth:`speed_bounds`): ``path(s)`` without looking the pieces up, in
+        one batch of numpy steps."""
+        if self._pieces is None:
+            S = len(self._kinds)
+            origin, d1, d2 = (
+                np.empty((S, self._dof)),
+                np.empty((S, self._dof)),
+                np.zeros((S, self._dof)),
+            )
+            radius = np.ones(S)
+            for k, kind in enumerate(self._kinds):
+                if kind == 0:
+                    origin[k], d1[k] = self._data[k][0], self._data[k][1]
+                else:
+                    origin[k], d1[k], d2[k], r, _ = self._data[k]
+                    radius[k] = r[0]
+            self._pieces = (origin, d1, d2, radius, self._kinds == 1)
+        origin, d1, d2, radius, arc = self._pieces
+        local = (s - self._starts[piece])[:, None]
+        r = radius[piece][:, None]
+        th = local / r
+        on_arc = arc[piece][:, None]
+        a = np.where(on_arc, r * np.cos(th), local)
+        b = np.where(on_arc, r * np.sin(th), 0.0)
+        return origin[piece] + a * d1[piece] + b * d2[piece]
 
     def speed_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(starts (S + 1,), bounds (S, dof)): the arc lengths where the path's S pieces
