@@ -48,6 +48,7 @@ from robocell.scene.checker import (
     threads_rested,
 )
 from robocell.scene.planning_scene import PlanningScene
+from robocell.scene.swept import SweptResult
 from robocell.trajectory.path import BlendedPath
 from robocell.trajectory.timing import time_optimal
 
@@ -198,7 +199,16 @@ class Planner:
                     path = self._shortcut(edges, path, rng, deadline, budget)
                 else:
                     path = dedupe(path)  # a tree's connect step can repeat a node
-            ok, dev, bad, hits = self._validate(checker, path, chunk=chunk)
+            first = None
+            if cfg.continuous:
+                # proven free as it will be executed, corners rounded: the discrete final
+                # check would add nothing (most paths); else it finds where, for a repair
+                first = self._swept(checker, path, cfg.max_deviation, stats)
+            if first is not None and first.free:
+                ok, dev, bad = True, cfg.max_deviation, _NONE
+                hits: dict[int, Hit] = {}
+            else:
+                ok, dev, bad, hits = self._validate(checker, path, chunk=chunk)
             if not ok and native:
                 # repair the segments that collide between checked states, each by a search
                 # between its ends at the validation resolution, before replanning it all
@@ -207,7 +217,7 @@ class Planner:
                     path = repaired
                     ok, dev, bad, _ = self._validate(checker, path, True, chunk)
                     stats["repairs"] = stats.get("repairs", 0) + 1
-            if ok and cfg.continuous:
+            if ok and cfg.continuous and not (first is not None and first.free):
                 ok, path, dev, bad = self._prove_free(
                     checker, path, dev, group, rng, deadline, chunk, native, stats
                 )
@@ -531,6 +541,18 @@ class Planner:
         )
         return via if found else None
 
+    def _swept(
+        self,
+        checker: CollisionChecker,
+        path: NDArray[np.float64],
+        dev: float,
+        stats: dict[str, float],
+    ) -> SweptResult:
+        """The continuous check of ``path`` with its corners rounded within ``dev``."""
+        result = checker.swept(self.config.continuous_tolerance).check_path(BlendedPath(path, dev))
+        stats["swept_tests"] = stats.get("swept_tests", 0) + result.tests
+        return result
+
     def _prove_free(
         self,
         checker: CollisionChecker,
@@ -548,15 +570,12 @@ class Planner:
         configuration between two checked states collides, the corners are first left sharp
         (if that is where), else its segment is repaired as the final check's are, and the
         new path checked again, a few times at most."""
-        swept = checker.swept(self.config.continuous_tolerance)
         for _ in range(3):
-            result = swept.check_path(BlendedPath(path, dev))
-            stats["swept_tests"] = stats.get("swept_tests", 0) + result.tests
+            result = self._swept(checker, path, dev, stats)
             if result.free:
                 return True, path, dev, _NONE
             if dev > 0:
-                sharp = swept.check_path(BlendedPath(path, 0.0))
-                stats["swept_tests"] += sharp.tests
+                sharp = self._swept(checker, path, 0.0, stats)
                 if sharp.free:
                     return True, path, 0.0, _NONE
                 result, dev = sharp, 0.0

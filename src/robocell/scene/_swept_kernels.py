@@ -36,9 +36,11 @@ from robocell.scene._kernels import (
     PAIR_TAGS,
     TABLE_FREE,
     _centre,
+    _field_bound,
     _obstacle_distance,
     _placed,
     _range_buffers,
+    _relative_pose,
     _slot,
     _triangle_into,
     _world_clear,
@@ -168,6 +170,40 @@ def _trees_near(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, pad, stack)
     return False
 
 
+@njit(cache=True)
+def _tree_near_field(f, d, TB, body_root, nodes, left, right, fields, gap, R, t, stack):  # type: ignore[no-untyped-def]
+    """Whether a leaf of body d's tree comes within ``gap`` [m] of body f, by f's distance
+    field (a lower bound of the distance to it: ``fields`` = (field_kind, grid_origin,
+    grid_box, grid_h, grid_dims, grid_off, grid_values, prim_start, prim_kind, prim_T,
+    prim_dims) of the model); one tree descended instead of two. R (3, 3), t (3,): work."""
+    (
+        field_kind, grid_origin, grid_box, grid_h, grid_dims, grid_off, grid_values,
+        prim_start, prim_kind, prim_T, prim_dims,
+    ) = fields  # fmt: skip
+    _relative_pose(TB, f, d, R, t)
+    sp = 1
+    stack[0] = body_root[d]
+    while sp > 0:
+        sp -= 1
+        n = stack[sp]
+        sx, sy, sz = nodes[n, 0], nodes[n, 1], nodes[n, 2]
+        x = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
+        y = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
+        z = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
+        bound = _field_bound(
+            x, y, z, f, field_kind, grid_origin, grid_box, grid_h, grid_dims, grid_off,
+            grid_values, prim_start, prim_kind, prim_T, prim_dims,
+        )  # fmt: skip
+        if bound > nodes[n, 3] + gap:
+            continue
+        if left[n] < 0 or sp + 2 > stack.shape[0]:
+            return True
+        stack[sp] = left[n]
+        stack[sp + 1] = right[n]
+        sp += 2
+    return False
+
+
 @njit(cache=True, inline="always")
 def _cells(q, moving, half, v, n):  # type: ignore[no-untyped-def]
     """(first cell, count) of variable v's cells (n over 2π) within ``half`` [rad] of q[v]
@@ -252,6 +288,54 @@ def _pads(
     return hh * total
 
 
+@njit(cache=True, inline="always")
+def _pad_of(
+    b, static, pad, T, TB, nodes, body_root, W, stamp, cur, chain, revolute, child, axis,
+    speed, tail, hh, contrib,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Body b's pad at this state (computed once: ``pad[b]`` < 0 until then): the smaller of
+    its bound everywhere, ``static``, and :func:`_pads` (which fills ``contrib[b]``)."""
+    if pad[b] < 0.0:
+        pad[b] = min(
+            static,
+            _pads(
+                b, T, TB, nodes, body_root, W, stamp, cur, chain, revolute, child, axis,
+                speed, tail, hh, contrib,
+            ),
+        )  # fmt: skip
+    return pad[b]
+
+
+@njit(cache=True, inline="always")
+def _clear_of_world(
+    b, static, clear, pad, T, TB, nodes, body_root, W, stamp, cur, chain, revolute, child,
+    axis, speed, tail, hh, contrib, world_frame, world_dims, world_values,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Whether body b's bounding sphere grown by its pad is clear of the whole world
+    (K._world_clear), asked once per state (``clear[b]``: 1, 0, or −1 not yet): with the
+    bound everywhere (``static``) first, its own pad only if that is not enough."""
+    if clear[b] < 0:
+        r0 = body_root[b]
+        _centre(r0, b, TB, nodes, W, stamp, cur)
+        x, y, z, r = W[r0, 0], W[r0, 1], W[r0, 2], nodes[r0, 3]
+        if _world_clear(x, y, z, r + static, world_frame, world_dims, world_values):
+            clear[b] = 1
+        else:
+            grown = r + _pad_of(
+                b, static, pad, T, TB, nodes, body_root, W, stamp, cur, chain, revolute,
+                child, axis, speed, tail, hh, contrib,
+            )  # fmt: skip
+            clear[b] = (
+                1 if _world_clear(x, y, z, grown, world_frame, world_dims, world_values) else 0
+            )
+    if clear[b] == 0 and pad[b] < 0.0:
+        _pad_of(
+            b, static, pad, T, TB, nodes, body_root, W, stamp, cur, chain, revolute, child,
+            axis, speed, tail, hh, contrib,
+        )  # fmt: skip
+    return clear[b] == 1
+
+
 @njit(cache=True)
 def clear_with_pads(
     qs, half, part, model, scratch, epoch, speed, tail, chain, revolute, own_a, own_b,
@@ -283,6 +367,8 @@ def clear_with_pads(
         np.empty((3, 4)),
         np.empty((3, 4)),
         moving,
+        np.empty((3, 3)),
+        np.empty(3),
     )
     out = np.zeros(qs.shape[0], np.bool_)
     _clear_states(
@@ -307,14 +393,16 @@ def _clear_states(
     body_link, body_T, body_root, nodes, left, right = model[12:18]
     obs_kind, obs_T, obs_dims, obs_sphere = model[20:24]
     world_pairs, self_pairs = model[25], model[26]
-    field_kind = model[28]
+    pair_field, field_kind = model[27], model[28]
     exact = (field_kind,) + model[35:39] + model[39:44]
+    fields = (field_kind,) + model[29:35] + model[35:39]
     pair_table, table_vars, table_n, table_off, table_values, group_table = model[44:50]
     group_start, _, group_count = model[50:53]
     world_frame, world_dims, world_values = model[-3], model[-2], model[-1]
+    world_group_start, world_group_union, world_group_count, world_run_end = model[-7:-3]
     W, stamp, _, _, seen, _, T = _slot(scratch, 0)
     TB, q, stack, stack2, _, _, _, plain = buffers
-    clear, pad, contrib, big, tri, Tp, moving = work
+    clear, pad, contrib, big, tri, Tp, moving, R3, t3 = work
     B = body_link.shape[0]
     N = qs.shape[0]
     for s in range(N):
@@ -341,24 +429,49 @@ def _clear_states(
                             + (L[i, 3] if j == 3 else 0.0)
                         )
         for b in range(B):
-            pad[b] = min(
-                hh * body_rate[p, b],
-                _pads(
-                    b, T, TB, nodes, body_root, W, stamp, cur, chain, revolute, child, axis,
-                    speed[p], tail[p], hh, contrib,
-                ),
-            )  # fmt: skip
+            pad[b] = -1.0  # not yet known (_pad_of)
         free = True
+        skip_to = 0
         for k in range(world_pairs.shape[0]):
-            b, o = world_pairs[k, 0], world_pairs[k, 1]
-            r0 = body_root[b]
-            if clear[b] < 0:
-                clear[b] = _world_clear(
-                    W[r0, 0], W[r0, 1], W[r0, 2], nodes[r0, 3] + pad[b], world_frame,
-                    world_dims, world_values,
-                )  # fmt: skip
-            if clear[b] == 1:
+            if k < skip_to:
                 continue
+            b, o = world_pairs[k, 0], world_pairs[k, 1]
+            g = world_group_start[k]
+            if g >= 0:
+                # pairs k … k + count − 1: a rigid cluster's members against obstacle o; its
+                # union's grown sphere clear of the world, or of o, clears them all
+                u = world_group_union[g]
+                if _clear_of_world(
+                    u, hh * body_rate[p, u], clear, pad, T, TB, nodes, body_root, W, stamp,
+                    cur, chain, revolute, child, axis, speed[p], tail[p], hh, contrib,
+                    world_frame, world_dims, world_values,
+                ):  # fmt: skip
+                    skip_to = world_run_end[k]
+                    continue
+                ru = body_root[u]
+                pu = pad[u]  # known: the union was not clear with its static pad
+                dx = W[ru, 0] - obs_sphere[o, 0]
+                dy = W[ru, 1] - obs_sphere[o, 1]
+                dz = W[ru, 2] - obs_sphere[o, 2]
+                rr = nodes[ru, 3] + pu + obs_sphere[o, 3]
+                if (
+                    dx * dx + dy * dy + dz * dz > rr * rr
+                    or _obstacle_distance(
+                        W[ru, 0], W[ru, 1], W[ru, 2], obs_kind[o], obs_T[o], obs_dims[o]
+                    )
+                    > nodes[ru, 3] + pu
+                ):
+                    skip_to = k + world_group_count[g]
+                    continue
+            if _clear_of_world(
+                b, hh * body_rate[p, b], clear, pad, T, TB, nodes, body_root, W, stamp, cur,
+                chain, revolute, child, axis, speed[p], tail[p], hh, contrib, world_frame,
+                world_dims, world_values,
+            ):  # fmt: skip
+                if g < 0:
+                    skip_to = world_run_end[k]
+                continue
+            r0 = body_root[b]
             dx = W[r0, 0] - obs_sphere[o, 0]
             dy = W[r0, 1] - obs_sphere[o, 1]
             dz = W[r0, 2] - obs_sphere[o, 2]
@@ -389,6 +502,11 @@ def _clear_states(
                 k += 1
                 continue
             a, b = self_pairs[k, 0], self_pairs[k, 1]
+            for x in (a, b):
+                _pad_of(
+                    x, hh * body_rate[p, x], pad, T, TB, nodes, body_root, W, stamp, cur,
+                    chain, revolute, child, axis, speed[p], tail[p], hh, contrib,
+                )  # fmt: skip
             gap = 0.0
             for i in range(chain.shape[1]):
                 if own_a[k, i]:
@@ -406,7 +524,14 @@ def _clear_states(
             if dx * dx + dy * dy + dz * dz > rr * rr:
                 k += 1
                 continue
-            if _trees_near(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, gap, stack2):
+            m = pair_field[k]
+            if m >= 0:
+                f, d = (a, b) if m == 0 else (b, a)
+                if _tree_near_field(
+                    f, d, TB, body_root, nodes, left, right, fields, gap, R3, t3, stack
+                ):
+                    free = False
+            elif _trees_near(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, gap, stack2):
                 free = False
             k += 1
         out[s] = free
@@ -422,3 +547,111 @@ def clear_with_pads_in(
         qs, half, part, inputs.model, inputs.scratch, epoch, speed, tail, chain, revolute,
         own_a, own_b, body_rate, pair_rate, pieces_below,
     )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _point(s, k, starts, origin, d1, d2, radius, arc, out):  # type: ignore[no-untyped-def]
+    """out (dof,): the path's position at arc length s on its piece k (piece_arrays)."""
+    x = s - starts[k]
+    if arc[k]:
+        r = radius[k]
+        a, b = r * math.cos(x / r), r * math.sin(x / r)
+        for j in range(out.shape[0]):
+            out[j] = origin[k, j] + a * d1[k, j] + b * d2[k, j]
+    else:
+        for j in range(out.shape[0]):
+            out[j] = origin[k, j] + x * d1[k, j]
+
+
+@njit(cache=True)
+def prove_parts(
+    s0, h, seg, level, last, limit, pieces, inputs, epoch, speed, tail, chain, revolute, own_a,
+    own_b, body_rate, pair_rate, pieces_below,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Parts of a path (from arc length s0 over h, on piece seg) tested with pads at their
+    middles (:func:`clear_with_pads`), those not proven halved, level after level: from
+    ``level`` until none is left, or ``last`` is reached, or more than ``limit`` are left.
+    Returns (s0, h, seg) of the parts left, halved (their middles are s0 + h: the caller
+    checks those), the level they were left at, and the states tested. ``pieces``: the path's
+    piece_arrays(); stamps from ``epoch`` on (one per state tested)."""
+    starts, origin, d1, d2, radius, arc = pieces
+    dof = origin.shape[1]
+    tests = 0
+    while True:
+        n = s0.shape[0]
+        qs = np.empty((n, dof))
+        half = 0.5 * h
+        for i in range(n):
+            _point(s0[i] + half[i], seg[i], starts, origin, d1, d2, radius, arc, qs[i])
+        free = clear_with_pads(
+            qs, half, seg, inputs.model, inputs.scratch, epoch + tests, speed, tail, chain,
+            revolute, own_a, own_b, body_rate, pair_rate, pieces_below,
+        )  # fmt: skip
+        tests += n
+        keep = ~free
+        s0, h, seg = s0[keep], half[keep], seg[keep]
+        if s0.shape[0] == 0 or level >= last or s0.shape[0] > limit:
+            return s0, h, seg, level, tests
+        s0 = np.concatenate((s0, s0 + h))
+        h = np.concatenate((h, h))
+        seg = np.concatenate((seg, seg))
+        level += 1
+
+
+@njit(cache=True)
+def path_parts(starts, bounds, body_radii, pair_radii, joint_column, gain, R, chain, first_pad):  # type: ignore[no-untyped-def]
+    """What :func:`prove_parts` takes for a path of S pieces (``starts`` (S + 1,), joint
+    speed ``bounds`` (S, dof)): per piece, each body's and self pair's speed bound everywhere
+    (S, B), (S, P) [m per rad of s]; each tree joint's speed bound (S, J); per body and chain
+    joint, how fast the joints below it move the body (S, B, C) (:func:`_pads`); and the
+    first parts (s0, h, seg): each piece cut into equal parts whose pads are at most
+    ``first_pad`` [m] by the bounds everywhere."""
+    S, dof = bounds.shape
+    B, C = chain.shape
+    body = bounds @ body_radii.T
+    pair = bounds @ pair_radii.T
+    J = joint_column.shape[0]
+    speed = np.zeros((S, J))
+    for k in range(S):
+        for j in range(J):
+            if joint_column[j] >= 0:
+                speed[k, j] = bounds[k, joint_column[j]] * gain[j]
+    tail = np.zeros((S, B, C))
+    for k in range(S):
+        for b in range(B):
+            below = 0.0
+            for i in range(C):
+                j = chain[b, i]
+                if j < 0:
+                    break
+                tail[k, b, i] = below
+                below += speed[k, j] * R[b, j]
+    counts = np.zeros(S, np.int64)
+    for k in range(S):
+        length = starts[k + 1] - starts[k]
+        if length <= 0.0:
+            continue
+        fastest = 0.0
+        for b in range(body.shape[1]):
+            fastest = max(fastest, body[k, b])
+        for p in range(pair.shape[1]):
+            fastest = max(fastest, pair[k, p])
+        if fastest <= 0.0:
+            counts[k] = 1
+        else:
+            counts[k] = max(1, int(math.ceil(length * fastest / (2.0 * first_pad))))
+    n = counts.sum()
+    s0 = np.empty(n)
+    h = np.empty(n)
+    seg = np.empty(n, np.int64)
+    i = 0
+    for k in range(S):
+        if counts[k] == 0:
+            continue
+        step = (starts[k + 1] - starts[k]) / counts[k]
+        for m in range(counts[k]):
+            s0[i] = starts[k] + m * step
+            h[i] = step
+            seg[i] = k
+            i += 1
+    return body, pair, speed, tail, s0, h, seg

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -132,7 +132,8 @@ def motion_radii(checker: CollisionChecker) -> MotionRadii:
 class SweptPath(Protocol):
     """A path in the group's joint space, parameterized by arc length ``s`` [rad] in
     [0, length] (a BlendedPath is one): ``path(s)`` → (N, dof), ``path.at(s, piece)`` the
-    same for s known to lie on those pieces; ``speed_bounds()`` →
+    same for s known to lie on those pieces (``piece_arrays()`` describes them for compiled
+    code); ``speed_bounds()`` →
     (starts (S + 1,), bounds (S, dof)): along each of its S pieces (s from starts[i] to
     starts[i + 1]) no joint moves faster than its bound per unit of s."""
 
@@ -144,6 +145,8 @@ class SweptPath(Protocol):
     def at(self, s: NDArray[np.float64], piece: NDArray[np.int64]) -> NDArray[np.float64]: ...
 
     def speed_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+
+    def piece_arrays(self) -> tuple[NDArray[Any], ...]: ...
 
 
 @dataclass
@@ -223,44 +226,36 @@ class SweptCheck:
         equal parts short enough that no body's pad exceeds ``first_pad``; the parts that are
         not proven free are halved, level after level."""
         starts, bounds = path.speed_bounds()
-        lengths = np.diff(starts)
-        body = np.ascontiguousarray(bounds @ self.body_radii.T)  # (S, B) [m per rad of s]
-        pair = np.ascontiguousarray(bounds @ self.pair_radii.T)  # (S, P)
-        fastest = np.maximum(body.max(axis=1, initial=0.0), pair.max(axis=1, initial=0.0))
-        # per piece: each tree joint's speed bound, and per body and chain joint, how fast
-        # the joints below it move the body (the kernel's pads: SW._pads)
-        col = self._joint_column
-        speed = np.where(col >= 0, bounds[:, np.maximum(col, 0)] * self._gain, 0.0)
-        chain = self._chain
-        valid = chain >= 0
-        k = np.maximum(chain, 0)
-        moved = np.where(valid, speed[:, k] * self._R[np.arange(len(chain))[:, None], k], 0.0)
-        tail = np.ascontiguousarray(np.cumsum(moved, axis=2) - moved)  # (S, B, C)
-        speed = np.ascontiguousarray(speed)
-        # each piece in parts of equal length whose pads are at most first_pad
-        step = np.where(fastest > 0, 2.0 * self.first_pad / np.maximum(fastest, 1e-300), np.inf)
-        parts = np.where(lengths > 0, np.ceil(lengths / np.minimum(step, lengths + 1.0)), 0)
-        parts = parts.astype(np.int64)
-        seg = np.repeat(np.arange(len(lengths)), parts)
-        h = np.repeat(lengths / np.maximum(parts, 1), parts)  # the parts' lengths
-        s0 = np.repeat(starts[:-1], parts) + h * (
-            np.arange(len(seg)) - np.repeat(np.cumsum(parts) - parts, parts)
+        body, pair, speed, tail, s0, h, seg = SW.path_parts(
+            starts,
+            np.ascontiguousarray(bounds),
+            self.body_radii,
+            self.pair_radii,
+            self._joint_column,
+            self._gain,
+            self._R,
+            self._chain,
+            self.first_pad,
         )
+        chain = self._chain
         if len(seg) == 0:
             return self._exact_at(path, np.array([0.0]), None, 0, 0)
         tests = exact = 0
-        first_parts = len(seg)
-        inputs = self.checker.compiled_inputs
-        for level in range(self.levels + 1):
+        limit = max(EXACT_AFTER, len(seg))
+        level = 0
+        pieces = path.piece_arrays()
+        while True:
             # the parts' pads are at most first_pad / 2^level
-            qs = np.ascontiguousarray(path.at(s0 + 0.5 * h, seg))
-            tests += len(qs)
-            free = SW.clear_with_pads_in(
-                qs,
-                0.5 * h,
+            s0, h, seg, level, n = SW.prove_parts(
+                s0,
+                h,
                 seg,
-                inputs,
-                next_epoch(len(qs)),
+                level,
+                self.levels,
+                limit,
+                pieces,
+                self.checker.compiled_inputs,
+                next_epoch(1 << 40),
                 speed,
                 tail,
                 chain,
@@ -271,23 +266,22 @@ class SweptCheck:
                 pair,
                 self.pieces_below,
             )
-            if free.all():
+            tests += n
+            if len(s0) == 0:
                 return SweptResult(True, 0.0, tests, exact)
-            keep = ~free
-            s0, h, seg = s0[keep], 0.5 * h[keep], seg[keep]
-            if len(s0) > max(EXACT_AFTER, first_parts) or level == self.levels:
-                # the parts left checked as they are at their midpoints: at the last level,
-                # what the tolerance rests on; before, when more are left than the path had
-                # parts at first, as a path that collides leaves every part around the
-                # collision, twice as many each level
-                hit = self._exact_at(path, s0 + h, seg, tests, exact)
-                exact = hit.exact
-                if not hit.free or level == self.levels:
-                    return hit
+            # the parts left checked as they are at their midpoints: at the last level, what
+            # the tolerance rests on; before, when more are left than the path had parts at
+            # first, as a path that collides leaves every part around the collision, twice as
+            # many each level
+            hit = self._exact_at(path, s0 + h, seg, tests, exact)
+            exact = hit.exact
+            if not hit.free or level >= self.levels:
+                return hit
             s0 = np.concatenate([s0, s0 + h])
             h = np.concatenate([h, h])
             seg = np.concatenate([seg, seg])
-        raise AssertionError("unreachable: the last level returns")
+            level += 1
+            limit = 2 * len(s0)
 
     def _exact_at(
         self,

@@ -9,7 +9,7 @@ corner the speed must drop to zero, at a rounded one it need not.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -107,7 +107,7 @@ class BlendedPath(_ArcLengthPath):
                 lengths.append(float(r_[0] * al[0]))
         self._kinds = np.array(kinds)
         self._data = data
-        self._pieces: tuple[NDArray[np.float64], ...] | None = None  # at()'s arrays, once made
+        self._pieces: tuple[NDArray[Any], ...] | None = None  # piece_arrays(), once made
         self._starts = np.concatenate([[0.0], np.cumsum(lengths)])
         self._length = float(self._starts[-1])
         # boundaries where the curvature jumps: a time parameterization needs a gridpoint there
@@ -163,10 +163,11 @@ class BlendedPath(_ArcLengthPath):
                     out[m] = (-cos_t * e1 - sin_t * e2) / r[0]
         return out[0] if scalar else out
 
-    def at(self, s: NDArray[np.float64], piece: NDArray[np.int64]) -> NDArray[np.float64]:
-        """(N, dof) positions at arc lengths ``s`` (N,) that lie on pieces ``piece`` (N,)
-        (the pieces of :meth:`speed_bounds`): ``path(s)`` without looking the pieces up, in
-        one batch of numpy steps."""
+    def piece_arrays(self) -> tuple[NDArray[Any], ...]:
+        """The pieces of :meth:`speed_bounds` as arrays, for compiled code: (starts (S + 1,),
+        origin, d1, d2 (S, dof), radius (S,), arc (S,) bool). On piece k, at local arc length
+        x = s − starts[k], the position is origin + x·d1 on a segment (d1 its direction), and
+        origin + r cos(x/r)·d1 + r sin(x/r)·d2 on an arc (origin its centre, r its radius)."""
         if self._pieces is None:
             S = len(self._kinds)
             origin, d1, d2 = (
@@ -181,9 +182,15 @@ class BlendedPath(_ArcLengthPath):
                 else:
                     origin[k], d1[k], d2[k], r, _ = self._data[k]
                     radius[k] = r[0]
-            self._pieces = (origin, d1, d2, radius, self._kinds == 1)
-        origin, d1, d2, radius, arc = self._pieces
-        local = (s - self._starts[piece])[:, None]
+            self._pieces = (self._starts, origin, d1, d2, radius, self._kinds == 1)
+        return self._pieces
+
+    def at(self, s: NDArray[np.float64], piece: NDArray[np.int64]) -> NDArray[np.float64]:
+        """(N, dof) positions at arc lengths ``s`` (N,) that lie on pieces ``piece`` (N,)
+        (the pieces of :meth:`speed_bounds`): ``path(s)`` without looking the pieces up, in
+        one batch of numpy steps."""
+        starts, origin, d1, d2, radius, arc = self.piece_arrays()
+        local = (s - starts[piece])[:, None]
         r = radius[piece][:, None]
         th = local / r
         on_arc = arc[piece][:, None]
