@@ -570,6 +570,7 @@ class Planner:
         configuration between two checked states collides, the corners are first left sharp
         (if that is where), else its segment is repaired as the final check's are, and the
         new path checked again, a few times at most."""
+        bad = _NONE
         for _ in range(3):
             result = self._swept(checker, path, dev, stats)
             if result.free:
@@ -581,16 +582,15 @@ class Planner:
                 result, dev = sharp, 0.0
             bad = BlendedPath(path, 0.0)(result.at)
             if not native:
-                return False, path, dev, bad
+                break
             hit = _hit_near(path, bad, 5 * self.config.validation_resolution)
             repaired = self._repair(checker, path, group, rng, deadline, hit)
             if repaired is None:
-                return False, path, dev, bad
+                break
             stats["repairs"] = stats.get("repairs", 0) + 1
             path = repaired
-            ok, dev, bad, _ = self._validate(checker, path, True, chunk)
-            if not ok:
-                return False, path, dev, bad
+            # the repair checked its new segments: the arcs decide the corners' rounding
+            _, dev, _, _ = self._validate(checker, path, True, chunk)
         return False, path, dev, bad
 
     def _validate(
