@@ -3,6 +3,7 @@ sorting cell, headless physics, no grasp assist. Prints per layout the objects i
 wall-clock and robot time, and lists every failure with its stage and reason.
 
     python benchmarks/bench_sorting.py [--layouts 200] [--by color] [--mode physics]
+        [--continuous]
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import time
 
 from robocell.apps.demo import load_example
 from robocell.cell import Cell
+from robocell.planning import PlannerConfig
 
 
 def main() -> None:
@@ -21,7 +23,11 @@ def main() -> None:
     ap.add_argument("--first", type=int, default=0, help="first layout (0 is the seed's)")
     ap.add_argument("--by", choices=["color", "shape"], default="color")
     ap.add_argument("--mode", choices=["physics", "kinematic"], default="physics")
+    ap.add_argument(
+        "--continuous", action="store_true", help="plan with PlannerConfig(continuous=True)"
+    )
     args = ap.parse_args()
+    config = PlannerConfig(continuous=args.continuous)
     example = load_example()
     total = ok = 0
     walls, per_object, planning = [], [], []
@@ -29,7 +35,7 @@ def main() -> None:
     print(f"{'layout':>6} {'in trays':>9} {'wall s':>7} {'robot s/object':>15}", flush=True)
     for k in range(args.first, args.first + args.layouts):
         t0 = time.perf_counter()
-        cell = Cell.load("sorting", layout=k, mode=args.mode, time_scale=0)
+        cell = Cell.load("sorting", layout=k, mode=args.mode, time_scale=0, planner_config=config)
         rows = example.sort(cell, args.by)
         wall = time.perf_counter() - t0
         done = sum(r.in_tray for r in rows)

@@ -12,7 +12,8 @@ from robocell.cell import Cell
 from robocell.errors import CellError, ExecutionError, SimulationError
 from robocell.execution import ExecutionStatus
 from robocell.kinematics import fk
-from robocell.trajectory import ptp, time_optimal
+from robocell.planning import PlannerConfig
+from robocell.trajectory import BlendedPath, ptp, time_optimal
 
 
 @pytest.fixture
@@ -167,6 +168,23 @@ def test_kinematic_mode(tmp_path):
         cell.target_position("pink_target")
     assert np.allclose(cell.target_position("red_target"), [-0.4, 0.15, 0.2])
     assert np.allclose(cell.target_position("red_target", frame="world"), [-0.4, 0.15, 1.1])
+
+
+def test_a_cells_move_groups_plan_with_its_planner_settings():
+    """Cell.load(planner_config=...): every move group's plans are proven free by the
+    continuous check when it asks for it."""
+    cell = Cell.load(
+        "sorting", mode="kinematic", time_scale=0, planner_config=PlannerConfig(continuous=True)
+    )
+    arm = cell.move_group("arm")
+    assert arm.planner.config.continuous
+    arm.set_joint_value_target([0.5, 0.2, 0.1, 0, 0.3, 0])
+    plan = arm.plan()
+    assert plan.success and plan.stats["swept_tests"] > 0
+    path = BlendedPath(plan.path, plan.stats["corner_deviation"])
+    assert cell.scene.checker("arm").swept().check_path(path).free
+    plain = Cell.load("sorting", mode="kinematic", time_scale=0).move_group("arm")
+    assert not plain.planner.config.continuous
 
 
 def test_cameras(cell):

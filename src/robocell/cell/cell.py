@@ -24,6 +24,7 @@ from robocell.cell.move_group import MoveGroup
 from robocell.errors import CellError, choices
 from robocell.execution.controller import Controller, KinematicController
 from robocell.geometry.pose import Pose
+from robocell.planning.planner import PlannerConfig
 from robocell.robot.model import RobotModel
 from robocell.scene.objects import CollisionObject
 from robocell.scene.planning_scene import PlanningScene
@@ -39,7 +40,9 @@ class Cell:
     mode: the scene's robot follows trajectories exactly; objects do not move by themselves).
     ``realtime`` paces the physics to the wall clock (for viewing); ``time_scale`` sets the
     kinematic controller's pace (0: at once); ``object_padding`` [m]: how far plans keep clear
-    of the free objects (see :meth:`PlanningScene.set_object_padding`)."""
+    of the free objects (see :meth:`PlanningScene.set_object_padding`); ``planner_config``:
+    the move groups' planner settings (e.g. ``PlannerConfig(continuous=True)``: every
+    motion proven free, not only checked at fine steps)."""
 
     def __init__(
         self,
@@ -49,6 +52,7 @@ class Cell:
         realtime: bool = False,
         time_scale: float = 1.0,
         object_padding: float = 0.01,
+        planner_config: PlannerConfig | None = None,
     ) -> None:
         if not isinstance(mode, str) or mode not in MODES:
             raise CellError(f"unknown mode {mode!r}; known: {', '.join(MODES)}")
@@ -112,6 +116,7 @@ class Cell:
             self.world = World(self.robot, rs.pose, fixtures, objects, cams)
             self._stepper = Stepper(self.world, realtime)
         self.time_scale = time_scale
+        self.planner_config = planner_config
         self._controllers: dict[str, Controller] = {}
         self._groups: dict[str, MoveGroup] = {}
         self._boxes: dict[str, list[NDArray[np.float64]]] = {}
@@ -124,9 +129,17 @@ class Cell:
         mode: str = "physics",
         realtime: bool = False,
         time_scale: float = 1.0,
+        planner_config: PlannerConfig | None = None,
     ) -> Cell:
         """A bundled cell by name (``"sorting"``) or a cell file by path."""
-        return cls(load_cell_file(cell_path(name_or_path)), layout, mode, realtime, time_scale)
+        return cls(
+            load_cell_file(cell_path(name_or_path)),
+            layout,
+            mode,
+            realtime,
+            time_scale,
+            planner_config=planner_config,
+        )
 
     @property
     def stepper(self) -> Stepper | None:
@@ -370,7 +383,12 @@ class Cell:
         """MoveIt's commander for ``group`` of the cell's robot (one per group)."""
         self.scene.robot.group(group)  # an unknown one refused, naming the groups
         if group not in self._groups:
-            mg = MoveGroup(self.scene, group, controller=self.controller(group))
+            mg = MoveGroup(
+                self.scene,
+                group,
+                controller=self.controller(group),
+                planner_config=self.planner_config,
+            )
             mg.sync_state = self.sync_robot_state
             self._groups[group] = mg
         return self._groups[group]
