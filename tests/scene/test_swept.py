@@ -148,3 +148,14 @@ def test_bad_tolerances_are_refused(cluttered):
         SweptCheck(checker, tolerance=0.0)
     with pytest.raises(SceneError, match="first_pad"):
         SweptCheck(checker, first_pad=1e-6, tolerance=1e-5)
+
+
+def test_a_scene_that_collides_whatever_the_arm_does_is_never_proven_free(irb120):
+    """A box through the robot's base: a pair no joint of the arm separates."""
+    scene = PlanningScene(irb120)
+    scene.add_box("through_base", Pose([0.0, 0.0, 0.05]), [0.3, 0.3, 0.1])
+    checker = scene.checker("arm")
+    assert checker.static_collisions
+    a = np.zeros(6)
+    path = BlendedPath(np.array([a, a + 0.3]), 0.0)
+    assert not checker.swept().check_path(path).free

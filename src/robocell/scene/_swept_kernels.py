@@ -2,13 +2,14 @@
 each grown by a pad of its own, are clear at a configuration.
 
 The same levels as the collision kernel (``_kernels``), each with the pads: the world's distance
-grid and each obstacle's exact distance against a body's grown spheres; where a grown leaf
-touches an obstacle, the body's own pieces (mesh triangles, primitives) against the obstacle
-grown by the pad (a box or cylinder grown by the pad along each of its axes contains the
-obstacle's points within the pad); a self pair's table, over every cell the piece's joints can
-reach, or the two trees with the pad between them. Everything else the collision kernel
-decides by (distance fields, inner spheres, rigid clusters) is of the bodies as they are, and
-is not used: a pair it cannot prove clear here is simply not proven.
+grid against a body's (or a rigid cluster's union's) grown bounding sphere, then each
+obstacle's exact distance against its grown sphere tree; where a grown leaf touches an
+obstacle, the body's own pieces (mesh triangles, primitives) against the obstacle grown by the
+pad (a box or cylinder grown by the pad along each of its axes contains the obstacle's points
+within the pad); for a self pair, its table over every cell the part's joints can reach, else
+one body's distance field against the other's grown tree, else both trees with the pad between
+them. Inner spheres are not used (a hit is not the question here): a pair these cannot prove
+clear is simply not proven, and the part is halved.
 
 In a module of its own: numba's cache of a module's functions is dropped whenever the module's
 file changes, and the collision kernels take minutes to compile.
