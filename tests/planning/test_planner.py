@@ -361,3 +361,25 @@ def test_the_continuous_check_keeps_a_plan_off_the_wall_between_checked_states(w
     assert not checker.check_exact(states).any()
     assert checker.swept(PlannerConfig().continuous_tolerance).check_path(path).free
     assert plan.stats["swept_tests"] > 0
+
+
+def test_the_continuous_check_proves_a_path_where_the_ur5s_wrist_skims_its_forearm(mbm_ur5):
+    """MotionBenchMaker UR5 bookshelf_small 33: its path moves the wrist with wrist 2 within
+    0.1–0.9 mm of the forearm over a long stretch. Links may pass each other that close: the
+    check proves the world clear and checks those stretches exactly at the self tolerance's
+    spacing, within its budget (it had taken 300,000 tests and 6 s, session 23)."""
+    from robocell.scene.swept import BUDGET
+
+    folder = mbm_dir() / "ur5" / "problems" / "bookshelf_small_ur5"
+    scene = load_scene(mbm_ur5, folder / "scene0033.yaml")
+    req = load_request(mbm_ur5, folder / "request0033.yaml", scene)
+    request = MotionPlanRequest(req.group, JointGoal(req.goal), start=req.start, seed=33)
+    plan = Planner(scene, PlannerConfig(continuous=True)).plan(request)
+    assert plan.success, plan.reason
+    checker = scene.checker(req.group)
+    path = BlendedPath(plan.path, plan.stats["corner_deviation"])
+    result = checker.swept().check_path(path)
+    assert result.free and result.exact > 0
+    assert result.tests < BUDGET * 200
+    dense = path(np.linspace(0.0, path.length, int(path.length / 1e-3)))
+    assert not checker.check(dense).any()

@@ -150,3 +150,26 @@ def test_triangle_triangle_test_matches_coal_and_gjk(seed: int) -> None:
         assert sat == _coal_collides(ma, np.eye(4), mb, np.eye(4))
         hits += sat
     assert 100 < hits < 500
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_within_a_margin_agrees_with_coals_distance(seed: int) -> None:
+    """gjk_within(margin): a pair it calls farther apart than the margin is, by coal's
+    distance; a pair it calls within the margin is closer than it (to a micrometre)."""
+    rng = np.random.default_rng(seed)
+    near = far = 0
+    for _ in range(400):
+        (ka, Ta, da, ga), (kb, Tb, db, gb) = _random_primitive(rng), _random_primitive(rng)
+        if _coal_collides(ga, Ta, gb, Tb):
+            continue
+        d = _coal_distance(ga, Ta, gb, Tb)[0]
+        margin = float(rng.uniform(0.001, 0.1))
+        r = K.gjk_within(ka, Ta, da, kb, Tb, db, margin)
+        assert r != K.GJK_UNSURE
+        if r == K.GJK_FREE:
+            assert d >= margin - 1e-6
+            far += 1
+        else:
+            assert d <= margin + 1e-6
+            near += 1
+    assert near > 10 and far > 10

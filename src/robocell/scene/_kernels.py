@@ -262,14 +262,14 @@ def _support(kind, T, dims, dx, dy, dz, out, sign):  # type: ignore[no-untyped-d
 
 
 @njit(cache=True, inline="always")
-def _minkowski(ka, Ta, da, kb, Tb, db, d, out):  # type: ignore[no-untyped-def]
-    """Support of (A grown by EXACT_TOL) − B along d."""
+def _minkowski(ka, Ta, da, kb, Tb, db, d, out, margin):  # type: ignore[no-untyped-def]
+    """Support of (A grown by ``margin``) − B along d."""
     out[0] = out[1] = out[2] = 0.0
     _support(ka, Ta, da, d[0], d[1], d[2], out, 1.0)
     _support(kb, Tb, db, d[0], d[1], d[2], out, -1.0)
     n = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
     for i in range(3):
-        out[i] += EXACT_TOL * d[i] / n
+        out[i] += margin * d[i] / n
 
 
 @njit(cache=True, inline="always")
@@ -289,6 +289,13 @@ def _dot(a, b):  # type: ignore[no-untyped-def]
 def gjk_intersect(ka, Ta, da, kb, Tb, db):  # type: ignore[no-untyped-def]
     """GJK_HIT if solid primitives A and B are closer than EXACT_TOL, GJK_FREE if not,
     GJK_UNSURE if the iterations run out."""
+    return gjk_within(ka, Ta, da, kb, Tb, db, EXACT_TOL)
+
+
+@njit(cache=True, **NRT_ON)  # allocates: counts references even when _classify_range calls it
+def gjk_within(ka, Ta, da, kb, Tb, db, margin):  # type: ignore[no-untyped-def]
+    """GJK_HIT if solid primitives A and B are closer than ``margin`` [m] (> 0), GJK_FREE if
+    not, GJK_UNSURE if the iterations run out."""
     S = np.empty((4, 3))  # simplex, newest point last
     d = np.empty(3)
     a = np.empty(3)
@@ -302,14 +309,14 @@ def gjk_intersect(ka, Ta, da, kb, Tb, db):  # type: ignore[no-untyped-def]
         d[i] = Tb[i, 3] - Ta[i, 3]
     if _dot(d, d) < 1e-24:
         d[0], d[1], d[2] = 1.0, 0.0, 0.0
-    _minkowski(ka, Ta, da, kb, Tb, db, d, a)
+    _minkowski(ka, Ta, da, kb, Tb, db, d, a, margin)
     S[0] = a
     n = 1
     d[0], d[1], d[2] = -a[0], -a[1], -a[2]
     for _ in range(GJK_ITERATIONS):
         if _dot(d, d) < 1e-30:
             return GJK_HIT  # the origin is on the simplex
-        _minkowski(ka, Ta, da, kb, Tb, db, d, a)
+        _minkowski(ka, Ta, da, kb, Tb, db, d, a, margin)
         if _dot(a, d) < 0.0:
             return GJK_FREE  # a separating direction
         S[n] = a

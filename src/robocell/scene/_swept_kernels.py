@@ -25,11 +25,11 @@ from numba import njit
 from robocell.kinematics._kernels import fk_into
 from robocell.scene._kernels import (
     EXACT_BUDGET,
+    EXACT_TOL,
     FIELD_PRIMITIVES,
     GJK_COST,
     GJK_FREE,
     INV_TWO_PI,
-    MAX_VISITS,
     NRT_OFF,
     OBS_BOX,
     OBS_CYLINDER,
@@ -43,13 +43,19 @@ from robocell.scene._kernels import (
     _range_buffers,
     _relative_pose,
     _slot,
+    _tree_touches_sphere,
+    _triangle_copy,
     _triangle_into,
     _world_clear,
     gjk_intersect,
+    gjk_within,
     triangle_box_overlap,
 )
 
 TABLE_CELLS = 64  # at most, of a table looked up for one piece (else the trees decide)
+# what clear_with_pads says of a part: not proven free; proven; proven but for self pairs
+# whose pads are within the self tolerance (free if its middle is)
+UNPROVEN, PROVEN, NEAR = 0, 1, 2
 
 
 @njit(cache=True)
@@ -131,57 +137,25 @@ def _body_near_obstacle(
 
 
 @njit(cache=True)
-def _trees_near(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, pad, stack):  # type: ignore[no-untyped-def]
-    """Whether a leaf of a's tree and one of b's come within ``pad`` [m] of each other (True
-    also when the descent runs past MAX_VISITS: unproven)."""
-    sp = 1
-    visits = 0
-    stack[0, 0] = ra
-    stack[0, 1] = rb
-    while sp > 0:
-        sp -= 1
-        visits += 1
-        if visits > MAX_VISITS or sp >= stack.shape[0] - 2:
-            return True
-        i = stack[sp, 0]
-        j = stack[sp, 1]
-        _centre(i, a, TB, nodes, W, stamp, cur)
-        _centre(j, b, TB, nodes, W, stamp, cur)
-        dx = W[i, 0] - W[j, 0]
-        dy = W[i, 1] - W[j, 1]
-        dz = W[i, 2] - W[j, 2]
-        rr = nodes[i, 3] + nodes[j, 3] + pad
-        if dx * dx + dy * dy + dz * dz > rr * rr:
-            continue
-        leaf_i = left[i] < 0
-        leaf_j = left[j] < 0
-        if leaf_i and leaf_j:
-            return True
-        if leaf_i or (not leaf_j and nodes[j, 3] > nodes[i, 3]):
-            stack[sp, 0] = i
-            stack[sp, 1] = left[j]
-            stack[sp + 1, 0] = i
-            stack[sp + 1, 1] = right[j]
-        else:
-            stack[sp, 0] = left[i]
-            stack[sp, 1] = j
-            stack[sp + 1, 0] = right[i]
-            stack[sp + 1, 1] = j
-        sp += 2
-    return False
-
-
-@njit(cache=True)
-def _tree_near_field(f, d, TB, body_root, nodes, left, right, fields, gap, R, t, stack):  # type: ignore[no-untyped-def]
-    """Whether a leaf of body d's tree comes within ``gap`` [m] of body f, by f's distance
-    field (a lower bound of the distance to it: ``fields`` = (field_kind, grid_origin,
-    grid_box, grid_h, grid_dims, grid_off, grid_values, prim_start, prim_kind, prim_T,
-    prim_dims) of the model); one tree descended instead of two. R (3, 3), t (3,): work."""
+def _body_near_body(
+    f, d, use_field, gap, TB, body_root, nodes, left, right, fields, exact, R, t, stack,
+    stack_f, seen, tag, tri_d, tri_f,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Whether bodies f and d may come within ``gap`` [m] of each other (False: proven
+    apart). d's tree is descended in f's frame against f's distance field (``use_field``) or
+    f's tree; where a leaf of d comes near, its triangles are tested exactly against f's
+    primitives, or against the triangles of f's leaves near them (GJK with the gap as margin),
+    within EXACT_BUDGET. ``fields``/``exact``: the model's arrays (see clear_with_pads);
+    R (3, 3), t (3,), tri_d, tri_f (3, 4): work arrays; ``seen[tri] == tag`` marks d's
+    triangles tested in this call."""
     (
-        field_kind, grid_origin, grid_box, grid_h, grid_dims, grid_off, grid_values,
-        prim_start, prim_kind, prim_T, prim_dims,
-    ) = fields  # fmt: skip
+        field_kind, prim_start, prim_kind, prim_T, prim_dims, body_mesh, node_tri_start,
+        node_tri_ids, tri_V, tri_sphere,
+    ) = exact  # fmt: skip
     _relative_pose(TB, f, d, R, t)
+    margin = gap + EXACT_TOL
+    settle = body_mesh[d] and (field_kind[f] == FIELD_PRIMITIVES or body_mesh[f])
+    tests = 0
     sp = 1
     stack[0] = body_root[d]
     while sp > 0:
@@ -191,17 +165,79 @@ def _tree_near_field(f, d, TB, body_root, nodes, left, right, fields, gap, R, t,
         x = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
         y = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
         z = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
-        bound = _field_bound(
-            x, y, z, f, field_kind, grid_origin, grid_box, grid_h, grid_dims, grid_off,
-            grid_values, prim_start, prim_kind, prim_T, prim_dims,
-        )  # fmt: skip
-        if bound > nodes[n, 3] + gap:
+        if use_field:
+            (
+                fk, grid_origin, grid_box, grid_h, grid_dims, grid_off, grid_values, ps, pk,
+                pT, pd,
+            ) = fields  # fmt: skip
+            bound = _field_bound(
+                x, y, z, f, fk, grid_origin, grid_box, grid_h, grid_dims, grid_off,
+                grid_values, ps, pk, pT, pd,
+            )  # fmt: skip
+            if bound > nodes[n, 3] + gap:
+                continue
+        elif not _tree_touches_sphere(
+            body_root[f], nodes, left, right, x, y, z, nodes[n, 3] + gap, stack_f
+        ):
             continue
-        if left[n] < 0 or sp + 2 > stack.shape[0]:
+        if left[n] >= 0:
+            if sp + 2 > stack.shape[0]:
+                return True
+            stack[sp] = left[n]
+            stack[sp + 1] = right[n]
+            sp += 2
+            continue
+        if not settle:
             return True
-        stack[sp] = left[n]
-        stack[sp + 1] = right[n]
-        sp += 2
+        for i in range(node_tri_start[n], node_tri_start[n + 1]):
+            u = node_tri_ids[i]
+            if seen[u] == tag:
+                continue
+            seen[u] = tag
+            _triangle_into(R, t, tri_V[u], tri_d)
+            if field_kind[f] == FIELD_PRIMITIVES:
+                for p in range(prim_start[f], prim_start[f + 1]):
+                    tests += GJK_COST
+                    if (
+                        gjk_within(OBS_TRIANGLE, tri_d, prim_dims[p], prim_kind[p], prim_T[p],
+                                   prim_dims[p], margin) != GJK_FREE
+                    ):  # fmt: skip
+                        return True
+            else:
+                # f's leaves near the triangle's bounding sphere, their triangles one by one
+                cx, cy, cz = tri_sphere[u, 0], tri_sphere[u, 1], tri_sphere[u, 2]
+                wx = R[0, 0] * cx + R[0, 1] * cy + R[0, 2] * cz + t[0]
+                wy = R[1, 0] * cx + R[1, 1] * cy + R[1, 2] * cz + t[1]
+                wz = R[2, 0] * cx + R[2, 1] * cy + R[2, 2] * cz + t[2]
+                reach = tri_sphere[u, 3] + gap
+                fp = 1
+                stack_f[0] = body_root[f]
+                while fp > 0:
+                    fp -= 1
+                    m = stack_f[fp]
+                    dx, dy, dz = wx - nodes[m, 0], wy - nodes[m, 1], wz - nodes[m, 2]
+                    rr = reach + nodes[m, 3]
+                    if dx * dx + dy * dy + dz * dz > rr * rr:
+                        continue
+                    if left[m] >= 0:
+                        if fp + 2 > stack_f.shape[0]:
+                            return True
+                        stack_f[fp] = left[m]
+                        stack_f[fp + 1] = right[m]
+                        fp += 2
+                        continue
+                    for j in range(node_tri_start[m], node_tri_start[m + 1]):
+                        tests += GJK_COST
+                        if tests > EXACT_BUDGET:
+                            return True
+                        _triangle_copy(tri_V[node_tri_ids[j]], tri_f)
+                        if (
+                            gjk_within(OBS_TRIANGLE, tri_d, tri_d[:, 3], OBS_TRIANGLE, tri_f,
+                                       tri_f[:, 3], margin) != GJK_FREE
+                        ):  # fmt: skip
+                            return True
+            if tests > EXACT_BUDGET:
+                return True
     return False
 
 
@@ -340,7 +376,7 @@ def _clear_of_world(
 @njit(cache=True)
 def clear_with_pads(
     qs, half, part, model, scratch, epoch, speed, tail, chain, revolute, own_a, own_b,
-    body_rate, pair_rate, pieces_below,
+    body_rate, pair_rate, pieces_below, self_tolerance,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """(N,) bool: True where, at configuration qs[s] (group variables), the middle of a part
     of the path of half length ``half[s]`` [rad] on path piece ``part[s]``, every world pair's
@@ -351,7 +387,9 @@ def clear_with_pads(
     move the body; ``chain`` (B, C) the group's joints from each body to the root, −1 after;
     ``own_a``/``own_b`` (P, C): which of the chain joints of a self pair's first and second
     body the other's chain lacks), and at most ``half[s]`` times ``body_rate[piece]`` (B,) and
-    ``pair_rate[piece]`` (P,), bounds that hold everywhere. A body's pieces are tested only
+    ``pair_rate[piece]`` (P,), bounds that hold everywhere. (N,) int8: UNPROVEN, PROVEN, or
+    NEAR: proven but for self pairs whose pads are at most ``self_tolerance`` [m] (the part is
+    free to that depth if its middle is free). A body's pieces are tested only
     when its pad is below ``pieces_below`` [m] (larger pads leave pieces farther than a
     leaf's size apart, which are the cheaper to halve). ``model``: the checker's
     (K.MODEL_FIELDS); stamps from ``epoch``; scratch slot 0."""
@@ -370,11 +408,12 @@ def clear_with_pads(
         moving,
         np.empty((3, 3)),
         np.empty(3),
+        np.empty((3, 4)),
     )
-    out = np.zeros(qs.shape[0], np.bool_)
+    out = np.zeros(qs.shape[0], np.int8)
     _clear_states(
         qs, half, part, model, scratch, epoch, speed, tail, chain, revolute, own_a, own_b,
-        body_rate, pair_rate, pieces_below, _range_buffers(model), work, out,
+        body_rate, pair_rate, pieces_below, self_tolerance, _range_buffers(model), work, out,
     )  # fmt: skip
     return out
 
@@ -385,7 +424,7 @@ def clear_with_pads(
 @njit(cache=True, **NRT_OFF)
 def _clear_states(
     qs, half, part, model, scratch, epoch, speed, tail, chain, revolute, own_a, own_b,
-    body_rate, pair_rate, pieces_below, buffers, work, out,
+    body_rate, pair_rate, pieces_below, self_tolerance, buffers, work, out,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`clear_with_pads`' loop over the states, into ``out``."""
     group_idx, q_base, joints, root, parent, child, origin, jtype, axis, var, mult, offset = model[
@@ -402,8 +441,8 @@ def _clear_states(
     world_frame, world_dims, world_values = model[-3], model[-2], model[-1]
     world_group_start, world_group_union, world_group_count, world_run_end = model[-7:-3]
     W, stamp, _, _, seen, _, T = _slot(scratch, 0)
-    TB, q, stack, stack2, _, _, _, plain = buffers
-    clear, pad, contrib, big, tri, Tp, moving, R3, t3 = work
+    TB, q, stack, stack2, stack3, _, _, plain = buffers
+    clear, pad, contrib, big, tri, Tp, moving, R3, t3, tri_f = work
     B = body_link.shape[0]
     N = qs.shape[0]
     for s in range(N):
@@ -432,6 +471,7 @@ def _clear_states(
         for b in range(B):
             pad[b] = -1.0  # not yet known (_pad_of)
         free = True
+        near = False  # a self pair closer than self_tolerance, not proven apart
         skip_to = 0
         for k in range(world_pairs.shape[0]):
             if k < skip_to:
@@ -526,27 +566,28 @@ def _clear_states(
                 k += 1
                 continue
             m = pair_field[k]
-            if m >= 0:
-                f, d = (a, b) if m == 0 else (b, a)
-                if _tree_near_field(
-                    f, d, TB, body_root, nodes, left, right, fields, gap, R3, t3, stack
-                ):
+            f, d = (b, a) if m == 1 else (a, b)  # f: the body whose field is used, if any
+            if _body_near_body(
+                f, d, m >= 0, gap, TB, body_root, nodes, left, right, fields, exact, R3, t3,
+                stack, stack3, seen, cur * PAIR_TAGS + world_pairs.shape[0] + k, tri, tri_f,
+            ):  # fmt: skip
+                if gap <= self_tolerance:
+                    near = True
+                else:
                     free = False
-            elif _trees_near(a, b, ra, rb, nodes, left, right, TB, W, stamp, cur, gap, stack2):
-                free = False
             k += 1
-        out[s] = free
+        out[s] = (NEAR if near else PROVEN) if free else UNPROVEN
 
 
 @njit(cache=True)
 def clear_with_pads_in(
     qs, half, part, inputs, epoch, speed, tail, chain, revolute, own_a, own_b, body_rate,
-    pair_rate, pieces_below,
+    pair_rate, pieces_below, self_tolerance,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`clear_with_pads` on a K.KernelInputs."""
     return clear_with_pads(
         qs, half, part, inputs.model, inputs.scratch, epoch, speed, tail, chain, revolute,
-        own_a, own_b, body_rate, pair_rate, pieces_below,
+        own_a, own_b, body_rate, pair_rate, pieces_below, self_tolerance,
     )  # fmt: skip
 
 
@@ -566,33 +607,46 @@ def _point(s, k, starts, origin, d1, d2, radius, arc, out):  # type: ignore[no-u
 
 @njit(cache=True)
 def prove_parts(
-    s0, h, seg, level, last, limit, pieces, inputs, epoch, speed, tail, chain, revolute, own_a,
-    own_b, body_rate, pair_rate, pieces_below,
+    s0, h, seg, level, last, limit, budget, pieces, inputs, epoch, speed, tail, chain, revolute,
+    own_a, own_b, body_rate, pair_rate, pieces_below, self_tolerance,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Parts of a path (from arc length s0 over h, on piece seg) tested with pads at their
     middles (:func:`clear_with_pads`), those not proven halved, level after level: from
-    ``level`` until none is left, or ``last`` is reached, or more than ``limit`` are left.
+    ``level`` until none is left, or ``last`` is reached, or more than ``limit`` are left, or
+    the next level would take the states tested past ``budget``.
     Returns (s0, h, seg) of the parts left, halved (their middles are s0 + h: the caller
-    checks those), the level they were left at, and the states tested. ``pieces``: the path's
+    checks those), the level they were left at, the states tested, and the middles (s, seg)
+    of the parts proven NEAR (the caller checks those too). ``pieces``: the path's
     piece_arrays(); stamps from ``epoch`` on (one per state tested)."""
     starts, origin, d1, d2, radius, arc = pieces
     dof = origin.shape[1]
     tests = 0
+    near_s = np.empty(0)
+    near_seg = np.empty(0, np.int64)
     while True:
         n = s0.shape[0]
         qs = np.empty((n, dof))
         half = 0.5 * h
         for i in range(n):
             _point(s0[i] + half[i], seg[i], starts, origin, d1, d2, radius, arc, qs[i])
-        free = clear_with_pads(
+        said = clear_with_pads(
             qs, half, seg, inputs.model, inputs.scratch, epoch + tests, speed, tail, chain,
-            revolute, own_a, own_b, body_rate, pair_rate, pieces_below,
+            revolute, own_a, own_b, body_rate, pair_rate, pieces_below, self_tolerance,
         )  # fmt: skip
         tests += n
-        keep = ~free
+        near = said == NEAR
+        if near.any():
+            near_s = np.concatenate((near_s, s0[near] + half[near]))
+            near_seg = np.concatenate((near_seg, seg[near]))
+        keep = said == UNPROVEN
         s0, h, seg = s0[keep], half[keep], seg[keep]
-        if s0.shape[0] == 0 or level >= last or s0.shape[0] > limit:
-            return s0, h, seg, level, tests
+        if (
+            s0.shape[0] == 0
+            or level >= last
+            or s0.shape[0] > limit
+            or tests + 2 * s0.shape[0] > budget
+        ):
+            return s0, h, seg, level, tests, near_s, near_seg
         s0 = np.concatenate((s0, s0 + h))
         h = np.concatenate((h, h))
         seg = np.concatenate((seg, seg))

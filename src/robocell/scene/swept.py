@@ -60,6 +60,12 @@ PIECES_BELOW = 0.006
 # parts left unproven at a level beyond which their midpoints are checked exactly (see
 # SweptCheck.check_path)
 EXACT_AFTER = 32
+# the states a path's check may test, per part it starts with: beyond, it is not proven
+BUDGET = 64
+# [m] the tolerance of self pairs: two links may pass this deep into each other where the
+# path is checked exactly that close to them (the UR5's wrist 2 skims its forearm within
+# 0.1–0.9 mm over wide bands of wrist angles: 0.01 mm took thousands of exact checks per path)
+SELF_TOLERANCE = 0.0005
 
 
 class MotionRadii(NamedTuple):
@@ -161,13 +167,16 @@ class SweptPath(Protocol):
 class SweptResult:
     """The answer of :meth:`SweptCheck.check_path`: ``free`` if every configuration along
     the path is proven free (to the tolerance); else ``at`` [rad], the arc length of a
-    configuration that collides. ``tests``: the configurations tested with pads; ``exact``:
-    those checked as they are (where parts were left at the tolerance, or many at once)."""
+    configuration that collides (``collides``), or where the path could not be proven free
+    within the check's budget (a long stretch of it closer to an obstacle than the parts'
+    pads). ``tests``: the configurations tested with pads; ``exact``: those checked as they
+    are (where parts were left at the tolerance, or many at once)."""
 
     free: bool
     at: float
     tests: int
     exact: int
+    collides: bool = False
 
 
 class SweptCheck:
@@ -183,6 +192,7 @@ class SweptCheck:
         first_pad: float = FIRST_PAD,
         tolerance: float = TOLERANCE,
         pieces_below: float = PIECES_BELOW,
+        self_tolerance: float = SELF_TOLERANCE,
     ) -> None:
         if not (tolerance > 0 and first_pad >= tolerance and math.isfinite(first_pad)):
             raise SceneError(
@@ -224,6 +234,7 @@ class SweptCheck:
         self.first_pad = first_pad
         self.tolerance = tolerance
         self.pieces_below = pieces_below
+        self.self_tolerance = self_tolerance
         self.levels = math.ceil(math.log2(first_pad / tolerance))
 
     def check_path(self, path: SweptPath) -> SweptResult:
@@ -234,7 +245,7 @@ class SweptCheck:
         equal parts short enough that no body's pad exceeds ``first_pad``; the parts that are
         not proven free are halved, level after level."""
         if self.checker.static_collisions:  # pairs no joint of the group can separate
-            return SweptResult(False, 0.0, 0, 0)
+            return SweptResult(False, 0.0, 0, 0, collides=True)
         starts, bounds = path.speed_bounds()
         body, pair, speed, tail, s0, h, seg = SW.path_parts(
             starts,
@@ -252,17 +263,19 @@ class SweptCheck:
             return self._exact_at(path, np.array([0.0]), None, 0, 0)
         tests = exact = 0
         limit = max(EXACT_AFTER, len(seg))
+        budget = BUDGET * len(seg)
         level = 0
         pieces = path.piece_arrays()
         while True:
             # the parts' pads are at most first_pad / 2^level
-            s0, h, seg, level, n = SW.prove_parts(
+            s0, h, seg, level, n, near_s, near_seg = SW.prove_parts(
                 s0,
                 h,
                 seg,
                 level,
                 self.levels,
                 limit,
+                budget - tests,
                 pieces,
                 self.checker.compiled_inputs,
                 next_epoch(1 << 40),
@@ -275,8 +288,16 @@ class SweptCheck:
                 body,
                 pair,
                 self.pieces_below,
+                self.self_tolerance,
             )
             tests += n
+            if len(near_s):
+                # parts proven but for self pairs within the self tolerance: free to that
+                # depth if their middles are
+                hit = self._exact_at(path, near_s, near_seg, tests, exact)
+                exact = hit.exact
+                if not hit.free:
+                    return hit
             if len(s0) == 0:
                 return SweptResult(True, 0.0, tests, exact)
             # the parts left checked as they are at their midpoints: at the last level, what
@@ -287,11 +308,15 @@ class SweptCheck:
             exact = hit.exact
             if not hit.free or level >= self.levels:
                 return hit
+            if tests + 2 * len(s0) > budget:
+                # a long stretch closer to an obstacle than the parts' pads (a link skimming
+                # another over a wide band of angles): not proven, where it starts
+                return SweptResult(False, float((s0 + h).min()), tests, exact)
             s0 = np.concatenate([s0, s0 + h])
             h = np.concatenate([h, h])
             seg = np.concatenate([seg, seg])
             level += 1
-            limit = 2 * len(s0)
+            limit = 4 * len(s0)
 
     def _exact_at(
         self,
@@ -306,5 +331,5 @@ class SweptCheck:
         qs = path(s) if seg is None else path.at(s, seg)
         hit = self.checker.check(np.ascontiguousarray(qs))
         if hit.any():
-            return SweptResult(False, float(s[hit].min()), tests, exact + len(s))
+            return SweptResult(False, float(s[hit].min()), tests, exact + len(s), collides=True)
         return SweptResult(True, 0.0, tests, exact + len(s))
