@@ -73,11 +73,11 @@ def test_a_motion_called_free_never_collides_and_one_not_called_free_does(clutte
     """Random straight motions and bent paths among the obstacles (and the robot itself):
     each the check calls free has no colliding sample 0.2 mrad apart (coal's exact check);
     each it does not collides where it says (the checker's check, which counts bodies closer
-    than a micrometre as touching). The links held to the same tolerance as the world (10
-    µm, not the default half millimetre), so that their pairs are proven exactly too."""
+    than a micrometre as touching). The check's tolerances at 10 µm (not the default 0.1 mm
+    for the world and half a millimetre between links), so that pairs are proven exactly."""
     arm = cluttered.robot.group("arm")
     checker = cluttered.checker(arm)
-    swept = SweptCheck(checker, self_tolerance=1e-5)
+    swept = SweptCheck(checker, tolerance=1e-5, self_tolerance=1e-5)
     rng = np.random.default_rng(11)
     free_paths = colliding = 0
     for _ in range(300):

@@ -134,7 +134,7 @@ class PlannerConfig:
     # checks are discrete: it costs more than the final check (session 23, Panda table sets,
     # in the planner: 0.6–1.6 ms against 0.3–0.4 ms; see the README's figures)
     continuous: bool = False
-    continuous_tolerance: float = 1e-5
+    continuous_tolerance: float = 1e-4
 
 
 class Planner:

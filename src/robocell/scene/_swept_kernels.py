@@ -53,6 +53,10 @@ from robocell.scene._kernels import (
 )
 
 TABLE_CELLS = 64  # at most, of a table looked up for one piece (else the trees decide)
+# triangle tests (GJK_COST each) a self pair's exact stage may make per state: two links that
+# skim each other (the UR5's wrist 2 and forearm) meet thousands of triangle pairs within the
+# pads, so the part is halved instead, down to the self tolerance
+SELF_BUDGET = 1024
 # what clear_with_pads says of a part: not proven free; proven; proven but for self pairs
 # whose pads are within the self tolerance (free if its middle is)
 UNPROVEN, PROVEN, NEAR = 0, 1, 2
@@ -145,7 +149,7 @@ def _body_near_body(
     apart). d's tree is descended in f's frame against f's distance field (``use_field``) or
     f's tree; where a leaf of d comes near, its triangles are tested exactly against f's
     primitives, or against the triangles of f's leaves near them (GJK with the gap as margin),
-    within EXACT_BUDGET. ``fields``/``exact``: the model's arrays (see clear_with_pads);
+    within SELF_BUDGET. ``fields``/``exact``: the model's arrays (see clear_with_pads);
     R (3, 3), t (3,), tri_d, tri_f (3, 4): work arrays; ``seen[tri] == tag`` marks d's
     triangles tested in this call."""
     (
@@ -228,7 +232,7 @@ def _body_near_body(
                         continue
                     for j in range(node_tri_start[m], node_tri_start[m + 1]):
                         tests += GJK_COST
-                        if tests > EXACT_BUDGET:
+                        if tests > SELF_BUDGET:
                             return True
                         _triangle_copy(tri_V[node_tri_ids[j]], tri_f)
                         if (
@@ -236,7 +240,7 @@ def _body_near_body(
                                        tri_f[:, 3], margin) != GJK_FREE
                         ):  # fmt: skip
                             return True
-            if tests > EXACT_BUDGET:
+            if tests > SELF_BUDGET:
                 return True
     return False
 
