@@ -160,3 +160,24 @@ def test_a_scene_that_collides_whatever_the_arm_does_is_never_proven_free(irb120
     a = np.zeros(6)
     path = BlendedPath(np.array([a, a + 0.3]), 0.0)
     assert not checker.swept().check_path(path).free
+
+
+def test_a_path_the_budget_cannot_prove_is_not_called_free(irb120, monkeypatch):
+    """With a budget of 2 tests per first part, the swing that misses the post by 0.3 mm is
+    not proven (and not said to collide); with the default budget it is proven free."""
+    from robocell.scene import swept as swept_module
+
+    lo, hi = 0.0, 0.3
+    for _ in range(14):
+        mid = 0.5 * (lo + hi)
+        checker, swing = _swing_past_post(irb120, mid)
+        if checker.check_exact(swing(np.linspace(0.0, swing.length, 6000))).any():
+            lo = mid
+        else:
+            hi = mid
+    checker, swing = _swing_past_post(irb120, hi + 0.0003)
+    assert checker.swept().check_path(swing).free
+    monkeypatch.setattr(swept_module, "BUDGET", 2)
+    result = swept_module.SweptCheck(checker).check_path(swing)
+    assert not result.free and not result.collides
+    assert 0.0 <= result.at <= swing.length
