@@ -27,9 +27,13 @@ or its distance field, or its two trees.
 
 A path is cut into parts whose pads are at most ``first_pad`` by the bounds everywhere; the
 parts not proven free are halved, level after level (compiled, in one call). A part still not
-proven when its pads reach ``tolerance`` is checked exactly at its middle, as the checker checks
-a state: if it is free there, no point of the part lies deeper than the tolerance in an
-obstacle. Parts near an obstacle need short pads; parts in the open are proven in one test.
+proven when its pads reach ``tolerance`` (0.1 mm) is checked exactly at its middle, as the
+checker checks a state: if it is free there, no point of the part lies deeper than the
+tolerance in an obstacle. Two links are held to ``self_tolerance`` (0.5 mm) the same way: a
+part proven but for self pairs whose pads are that small is checked exactly at its middle. A
+path that would take more than BUDGET tests per first part is not proven (SweptResult says
+where, and that it was not found to collide). Parts near an obstacle need short pads; parts in
+the open are proven in one test.
 """
 
 from __future__ import annotations
