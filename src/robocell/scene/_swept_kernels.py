@@ -62,6 +62,17 @@ SELF_BUDGET = 1024
 UNPROVEN, PROVEN, NEAR = 0, 1, 2
 
 
+@njit(cache=True, inline="always")
+def _moved(R, t, p, i):  # type: ignore[no-untyped-def]
+    """Point p[i, :3] moved by rotation R and translation t, as (x, y, z)."""
+    x, y, z = p[i, 0], p[i, 1], p[i, 2]
+    return (
+        R[0, 0] * x + R[0, 1] * y + R[0, 2] * z + t[0],
+        R[1, 0] * x + R[1, 1] * y + R[1, 2] * z + t[1],
+        R[2, 0] * x + R[2, 1] * y + R[2, 2] * z + t[2],
+    )
+
+
 @njit(cache=True)
 def _grown(kind, dims, pad, out):  # type: ignore[no-untyped-def]
     """out: the dims of an obstacle primitive grown by ``pad`` [m] along each axis (a box's
@@ -122,10 +133,7 @@ def _body_near_obstacle(
             if seen[f] == tag:
                 continue
             seen[f] = tag
-            sx, sy, sz = tri_sphere[f, 0], tri_sphere[f, 1], tri_sphere[f, 2]
-            x = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
-            y = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
-            z = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
+            x, y, z = _moved(R, t, tri_sphere, f)
             if _obstacle_distance(x, y, z, kind, To, dims) > tri_sphere[f, 3] + pad:
                 continue
             tests += 1 if kind == OBS_BOX else GJK_COST
@@ -165,10 +173,7 @@ def _body_near_body(
     while sp > 0:
         sp -= 1
         n = stack[sp]
-        sx, sy, sz = nodes[n, 0], nodes[n, 1], nodes[n, 2]
-        x = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
-        y = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
-        z = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
+        x, y, z = _moved(R, t, nodes, n)
         if use_field:
             (
                 fk, grid_origin, grid_box, grid_h, grid_dims, grid_off, grid_values, ps, pk,
@@ -209,10 +214,7 @@ def _body_near_body(
                         return True
             else:
                 # f's leaves near the triangle's bounding sphere, their triangles one by one
-                cx, cy, cz = tri_sphere[u, 0], tri_sphere[u, 1], tri_sphere[u, 2]
-                wx = R[0, 0] * cx + R[0, 1] * cy + R[0, 2] * cz + t[0]
-                wy = R[1, 0] * cx + R[1, 1] * cy + R[1, 2] * cz + t[1]
-                wz = R[2, 0] * cx + R[2, 1] * cy + R[2, 2] * cz + t[2]
+                wx, wy, wz = _moved(R, t, tri_sphere, u)
                 reach = tri_sphere[u, 3] + gap
                 fp = 1
                 stack_f[0] = body_root[f]
@@ -354,7 +356,8 @@ def _clear_of_world(
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Whether body b's bounding sphere grown by its pad is clear of the whole world
     (K._world_clear), asked once per state (``clear[b]``: 1, 0, or −1 not yet): with the
-    bound everywhere (``static``) first, its own pad only if that is not enough."""
+    bound everywhere (``static``) first, its own pad only if that is not enough (so a body
+    not clear has its pad known: ``pad[b]``)."""
     if clear[b] < 0:
         r0 = body_root[b]
         _centre(r0, b, TB, nodes, W, stamp, cur)
@@ -369,11 +372,6 @@ def _clear_of_world(
             clear[b] = (
                 1 if _world_clear(x, y, z, grown, world_frame, world_dims, world_values) else 0
             )
-    if clear[b] == 0 and pad[b] < 0.0:
-        _pad_of(
-            b, static, pad, T, TB, nodes, body_root, W, stamp, cur, chain, revolute, child,
-            axis, speed, tail, hh, contrib,
-        )  # fmt: skip
     return clear[b] == 1
 
 
@@ -581,18 +579,6 @@ def _clear_states(
                     free = False
             k += 1
         out[s] = (NEAR if near else PROVEN) if free else UNPROVEN
-
-
-@njit(cache=True)
-def clear_with_pads_in(
-    qs, half, part, inputs, epoch, speed, tail, chain, revolute, own_a, own_b, body_rate,
-    pair_rate, pieces_below, self_tolerance,
-):  # type: ignore[no-untyped-def]  # fmt: skip
-    """:func:`clear_with_pads` on a K.KernelInputs."""
-    return clear_with_pads(
-        qs, half, part, inputs.model, inputs.scratch, epoch, speed, tail, chain, revolute,
-        own_a, own_b, body_rate, pair_rate, pieces_below, self_tolerance,
-    )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
