@@ -66,11 +66,12 @@ class PlannerConfig:
     exactly: 10 of 120 plans grazed it with a finger or link 3, by 0.01–0.46 mm, session 11;
     in session 10, 8 by 0.02–0.4 mm, and halving ``validation_resolution`` left 5 of them,
     the slivers being narrower than 1 mrad of the path). On the MotionBenchMaker sets (20
-    problems each, the executed paths sampled at 1 mrad, session 22): 17 of 280 paths pass
-    into an obstacle between two checked states, by up to 1.97 mm, mostly with a finger (a
-    step of 0.01 rad moves some point of a Panda by 6–16 mm); 16 of 280, 0.02–1.97 mm, with
-    ``shortcut_min_gain=0.02`` (``benchmarks/bench_final_check.py``). ``continuous=True``
-    proves the executed path free instead (0 of 280 pass into an obstacle, session 23)."""
+    problems each, the executed paths sampled at 1 mrad, session 24): 16 of 280 paths pass
+    into an obstacle between two checked states, by 0.08–2.00 mm, mostly with a finger (a
+    step of 0.01 rad moves some point of a Panda by 6–16 mm; 17 of 280, up to 1.97 mm, in
+    session 22 before ``shortcut_min_gain`` was 0.02) (``benchmarks/bench_final_check.py``).
+    ``continuous=True`` proves the executed path free instead (0 of 280 pass into an
+    obstacle, session 23)."""
 
     # 0.07 rather than 0.05: the search and shortcuts check 30 % fewer states, and what
     # that steps over the final check finds and a detour mends (cheap since session 11).
@@ -106,16 +107,17 @@ class PlannerConfig:
     # cage, states the shortcut checked): 40 tries and 2 % checked 3–37 % fewer states than
     # 20 tries and no least gain (the setting of sessions 10–21), and the paths came out as
     # long (mean −1.1 to +0.5 % per set); 20 tries and 2 % checked 10–38 % fewer, paths up to
-    # 0.9 % longer; 1 % saved less. Planning time, 50 problems per set
-    # alternating in one process: medians 10–20 % lower on the Panda's table_pick and
-    # bookshelves and the UR5's table_pick, within ±4 % on the others but the Panda's cage
-    # (+9 %, its p95 17 ms in both). Not the default yet: with it, the Python search's plan
-    # past the IRB 120's 4 cm wall (tests/planning/test_planner.py, seed 0) skims the wall by
-    # 0.12 mm between two states the final check found free, the discrete check's known gap
-    # (above; as often as without it: 4 of 31 seeds against 3). With ``continuous`` (below)
-    # that cannot happen, and the option can be on (the test of that plan turns both on).
+    # 0.9 % longer; 1 % saved less. The default since session 24: 50 problems per set, both
+    # settings alternating in one process, medians with 2 % against none: Panda table_pick
+    # 0.63 against 0.79 ms, bookshelves 7–9 % lower, table_under_pick, box and cage within
+    # ±3 %; UR5 table_pick 1.36 against 1.65 ms, table_under_pick 2.07 against 2.31, box 1.40
+    # against 1.62, cage 13.4 against 13.7; mean path lengths within ±0.5 %. (Session 22 had
+    # held it back because the Python search's plan past the IRB 120's 4 cm wall, seed 0,
+    # skims the wall by 0.12 mm with it between two states the final check found free: the
+    # discrete check's known gap, as often without it, 3 of 31 seeds against 4; the test of
+    # that plan turns ``continuous`` on, which closes the gap.)
     shortcut_tries: int = 20
-    shortcut_min_gain: float = 0.0
+    shortcut_min_gain: float = 0.02
     ik_timeout: float = 0.05
     numeric_goal_solutions: int = 4
     fix_start_radius: float = 0.2

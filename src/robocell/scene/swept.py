@@ -1,7 +1,7 @@
 """A continuous collision check of a motion: every configuration along a path proven free, not
 only sampled states (MoveIt's and OMPL's checks are discrete: between two checked states a thin
-part can pass into an obstacle; robocell's discrete final check let 17 of 280 MotionBenchMaker
-paths do so, by up to 1.97 mm).
+part can pass into an obstacle; robocell's discrete final check let 16 of 280 MotionBenchMaker
+paths do so, by up to 2.00 mm).
 
 The math (after Schwarzer, Saha and Latombe, "Exact collision checking of robot paths", 2002):
 a revolute joint turning by dθ moves a point at distance ρ from its axis by ρ·|dθ|, so along a
