@@ -170,7 +170,7 @@ def test_kinematic_mode(tmp_path):
     assert np.allclose(cell.target_position("red_target", frame="world"), [-0.4, 0.15, 1.1])
 
 
-def test_a_cells_move_groups_plan_with_its_planner_settings():
+def test_a_cells_move_groups_plan_with_its_planner_settings(monkeypatch):
     """Cell.load(planner_config=...): every move group's plans are proven free by the
     continuous check when it asks for it."""
     cell = Cell.load(
@@ -183,8 +183,23 @@ def test_a_cells_move_groups_plan_with_its_planner_settings():
     assert plan.success and plan.stats["swept_tests"] > 0
     path = BlendedPath(plan.path, plan.stats["corner_deviation"])
     assert cell.scene.checker("arm").swept().check_path(path).free
+    # and its Cartesian motions as they will run (the spline through their steps)
+    from robocell.cell import move_group as move_group_module
+
+    asked = []
+    real = move_group_module.compute_cartesian_path
+
+    def spy(*args, **kwargs):  # type: ignore[no-untyped-def]
+        asked.append(kwargs.get("continuous"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(move_group_module, "compute_cartesian_path", spy)
+    arm.execute(plan)
+    up = arm.compute_cartesian_path([arm.get_current_pose() * Pose([0.0, 0.0, -0.05])])
+    assert asked == [PlannerConfig().continuous_tolerance] and up.fraction == 1.0
     plain = Cell.load("sorting", mode="kinematic", time_scale=0).move_group("arm")
     assert not plain.planner.config.continuous
+    assert plain._continuous() is None
 
 
 def test_cameras(cell):

@@ -122,3 +122,56 @@ def test_a_step_whose_joints_move_fast_is_split_not_called_a_jump(scene):
         scene, "arm", [target], eef_step=0.04, link="tcp", max_joint_step=step / 100
     )
     assert cp.fraction < 1.0 and "joint jump" in cp.reason
+
+
+def _swing(irb120):
+    """The IRB 120's base joint swinging 0.6 rad past a post its tool passes through midway,
+    both ends free: a scene, its checker, and the swing's two ends."""
+    scene = PlanningScene(irb120)
+    arm = irb120.group("arm")
+    a = np.array([-0.3, 0.3, 0.2, 0.0, 0.8, 0.0])
+    b = a * [-1, 1, 1, 1, 1, 1]
+    scene.add_cylinder("post", Pose(fk(arm, a * [0, 1, 1, 1, 1, 1], "tcp")[:3, 3]), 0.01, 0.3)
+    checker = scene.checker(arm)
+    assert not checker.check(np.array([a, b])).any()
+    return scene, checker, a, b
+
+
+def test_the_continuous_check_stops_a_path_before_a_collision_between_its_steps(irb120):
+    """Two free steps with the post between them: proven only up to the first; a free step
+    before them is kept, its spline proven free."""
+    from robocell.planning.cartesian import _prove_spline
+
+    _, checker, a, b = _swing(irb120)
+    last, reason = _prove_spline(checker, np.array([a, b]), 1e-4)
+    assert last == 0 and "collision before step 1" in reason and "post" in reason
+    before = a + [-0.2, 0.0, 0.0, 0.0, 0.0, 0.0]
+    last, reason = _prove_spline(checker, np.array([before, a, b]), 1e-4)
+    assert last == 1 and "post" in reason
+    free, why = _prove_spline(checker, np.array([before, a]), 1e-4)
+    assert free == 1 and why == ""
+
+
+def test_a_continuous_cartesian_path_is_proven_free_as_it_will_run(scene):
+    """With ``continuous`` the path's spline (what time_optimal(smooth=True) runs along) has
+    no colliding configuration, densely sampled and checked by coal; into a post, the path
+    stops before it and says so."""
+    from robocell.scene.swept import TOLERANCE
+    from robocell.trajectory import SplinePath
+
+    arm = scene.robot.group("arm")
+    checker = scene.checker(arm)
+    T0 = scene.link_pose("tcp")
+    line = [relative_pose(T0, (0.0, 0.12, 0.08))]
+    cp = compute_cartesian_path(scene, "arm", line, link="tcp", continuous=TOLERANCE)
+    assert cp.fraction == 1.0 and cp.reason == ""
+    path = SplinePath(cp.path)
+    assert checker.swept().check_path(path).free
+    scene.add_box("post", Pose(T0.position + [0.0, 0.1, 0.0]), [0.05, 0.02, 0.4])
+    checker = scene.checker(arm)
+    target = [relative_pose(T0, (0, 0.2, 0))]
+    cp = compute_cartesian_path(scene, "arm", target, link="tcp", continuous=TOLERANCE)
+    assert 0.0 < cp.fraction < 0.5 and "collision" in cp.reason and "post" in cp.reason
+    path = SplinePath(cp.path)
+    s = np.linspace(0.0, path.length, int(path.length / 2e-4) + 2)
+    assert not checker.check_exact(path(s)).any()

@@ -10,7 +10,7 @@ from robocell.errors import SceneError
 from robocell.kinematics import fk
 from robocell.scene import _kernels as K
 from robocell.scene.swept import SweptCheck, motion_radii
-from robocell.trajectory import BlendedPath
+from robocell.trajectory import BlendedPath, SplinePath
 
 
 @pytest.fixture
@@ -181,3 +181,28 @@ def test_a_path_the_budget_cannot_prove_is_not_called_free(irb120, monkeypatch):
     result = swept_module.SweptCheck(checker).check_path(swing)
     assert not result.free and not result.collides
     assert 0.0 <= result.at <= swing.length
+
+
+def test_a_spline_called_free_never_collides_and_one_not_called_free_does(cluttered):
+    """The same for cubic splines through random waypoints (the path a Cartesian motion's
+    steps are executed along): its cubic pieces are proven as segments and arcs are."""
+    arm = cluttered.robot.group("arm")
+    checker = cluttered.checker(arm)
+    swept = SweptCheck(checker, tolerance=1e-5, self_tolerance=1e-5)
+    rng = np.random.default_rng(5)
+    free_paths = colliding = 0
+    for _ in range(300):
+        a = rng.uniform(arm.lower, arm.upper)
+        wp = a + np.cumsum(rng.normal(size=(4, arm.dof)) * 0.6, axis=0)
+        if checker.check(wp).any():
+            continue
+        path = SplinePath(wp)
+        result = swept.check_path(path)
+        if result.free:
+            free_paths += 1
+            s = np.linspace(0.0, path.length, int(path.length / 2e-4) + 2)
+            assert not checker.check_exact(path(s)).any()
+        else:
+            colliding += 1
+            assert checker.check(path(np.array([result.at])))[0]
+    assert free_paths >= 5 and colliding >= 5

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from robocell.errors import PlanningError
-from robocell.trajectory import BlendedPath
+from robocell.scene.swept import CUBIC
+from robocell.trajectory import BlendedPath, SplinePath
 
 
 def _polyline_distance(points: np.ndarray, wp: np.ndarray) -> np.ndarray:
@@ -112,3 +113,26 @@ def test_points_on_known_pieces_and_speed_bounds(waypoints):
         assert np.all(rate <= bounds[k] + 1e-9)
         if k % 2 == 0:  # a straight piece (they alternate with the arcs here)
             assert np.allclose(rate, bounds[k], atol=1e-9)
+
+
+def test_a_splines_points_on_known_pieces_and_speed_bounds():
+    """SplinePath's ``at(s, piece)`` is ``path(s)``; along each piece (between two waypoints)
+    no joint moves faster than its bound per unit of s, and the bound is reached (it is the
+    largest speed there, not a looser one)."""
+    rng = np.random.default_rng(3)
+    wp = np.cumsum(rng.normal(size=(12, 6)) * 0.2, axis=0)
+    path = SplinePath(wp)
+    starts, bounds = path.speed_bounds()
+    assert np.allclose(starts, path.breakpoints) and bounds.shape == (11, 6)
+    s = np.linspace(0.0, path.length, 3001)
+    piece = np.clip(np.searchsorted(starts, s, side="right") - 1, 0, len(bounds) - 1)
+    assert np.allclose(path.at(s, piece), path(s), atol=1e-12)
+    for k in range(len(bounds)):
+        ss = np.linspace(starts[k], starts[k + 1], 2000)
+        speed = np.abs(path(ss, 1))
+        assert np.all(speed <= bounds[k])
+        assert np.allclose(speed.max(axis=0), bounds[k], rtol=1e-4)
+    starts_, origin, d1, d2, d3, _, kind = path.piece_arrays()
+    assert np.all(kind == CUBIC)
+    x = (s - starts_[piece])[:, None]
+    assert np.allclose(origin[piece] + x * d1[piece] + x**2 * d2[piece] + x**3 * d3[piece], path(s))

@@ -276,7 +276,9 @@ class MoveGroup:
         rotation_step: float = 0.05,
     ) -> CartesianPlan:
         """Straight lines of the end-effector link through ``waypoints`` (world frame), from
-        the start state; unpacks as ``trajectory, fraction``."""
+        the start state; unpacks as ``trajectory, fraction``. With the planner's
+        ``continuous`` setting, the motion as it will run is proven free (it stops before
+        the first step where it is not: see :func:`compute_cartesian_path`)."""
         waypoints = _waypoints(waypoints)
         if self.sync_state is not None:
             self.sync_state()
@@ -292,6 +294,7 @@ class MoveGroup:
                 self.end_effector_link,
                 rotation_step,
                 start,
+                continuous=self._continuous(),
             )
         # the steps are dense samples of a smooth joint curve: a spline through them follows
         # it (a polyline would have a corner at every step)
@@ -303,6 +306,12 @@ class MoveGroup:
             smooth=True,
         )
         return CartesianPlan(traj, cp.fraction, cp.reason)
+
+    def _continuous(self) -> float | None:
+        """The continuous check's tolerance for Cartesian motions, when the planner's
+        settings ask for it (``PlannerConfig.continuous``), else None."""
+        config = self.planner.config
+        return config.continuous_tolerance if config.continuous else None
 
     def compute_sequence(
         self, waypoints: list[Pose], blend_radius: float = 0.0, eef_step: float = 0.005
@@ -324,6 +333,7 @@ class MoveGroup:
                 True,
                 self.end_effector_link,
                 start,
+                continuous=self._continuous(),
             )
         traj = stationary(self.group, start)
         for piece in seq.pieces:

@@ -24,6 +24,7 @@ from robocell.kinematics.fk import fk, tree_args
 from robocell.robot.model import JointGroup
 
 if TYPE_CHECKING:
+    from robocell.scene.checker import CollisionChecker
     from robocell.scene.planning_scene import PlanningScene
 
 
@@ -66,6 +67,7 @@ def compute_cartesian_path(
     rotation_step: float = 0.05,
     start: ArrayLike | None = None,
     max_joint_step: float = 0.2,
+    continuous: float | None = None,
 ) -> CartesianPath:
     """Straight lines of ``link`` (default: the group's tip) through ``waypoints`` (world
     frame), from ``start`` (default: the scene's current state).
@@ -73,6 +75,13 @@ def compute_cartesian_path(
     ``eef_step`` [m] and ``rotation_step`` [rad] bound each step. ``jump_threshold`` > 0 is
     MoveIt's relative test (a step longer in joint space than that many times the mean step is
     a jump); whatever it is, no joint may move more than ``max_joint_step`` [rad] in one step.
+
+    With ``avoid_collisions`` the steps, and the straight joint motions between them at
+    0.01 rad, are checked (discrete, as MoveIt's check is). ``continuous`` [m] (a tolerance,
+    as PlannerConfig's ``continuous_tolerance``) proves instead every configuration of the
+    motion as it will run free (:mod:`robocell.scene.swept`): the cubic spline through the
+    steps that :func:`robocell.trajectory.time_optimal` times (``smooth=True``); the path
+    stops before the first step where it is not proven.
     """
     g = group if isinstance(group, JointGroup) else scene.robot.group(group)
     robot = scene.robot
@@ -196,12 +205,56 @@ def compute_cartesian_path(
             pairs = checker.colliding_pairs(dense[first])
             what = ", ".join(f"{a} – {b}" for a, b in pairs) or "(unknown pair)"
             reason = f"collision at step {last + 1}: {what}"
+    if avoid_collisions and continuous is not None and last > 0:
+        last, why = _prove_spline(scene.checker(g), qs[: last + 1], continuous)
+        reason = why or reason
     whole = reached == n and last == len(qs) - 1
     fraction = 1.0 if whole else float(prog_out[last])
     return CartesianPath(qs[: last + 1], fraction, "" if whole else reason, P_out[: last + 1])
 
 
 SPLIT = 8  # how finely a step whose joints jump is split before it is called a jump
+
+
+def _prove_spline(
+    checker: CollisionChecker, qs: NDArray[np.float64], tolerance: float
+) -> tuple[int, str]:
+    """The last step of ``qs`` up to which the spline through the steps (the path as it will
+    run) is proven free by the continuous check, and why it stops earlier ("" if it does
+    not). A spline through fewer steps bends differently near its end, so each shorter one
+    is proven anew."""
+    from robocell.trajectory.path import SplinePath
+
+    swept = checker.swept(tolerance)
+    last = len(qs) - 1
+    reason = ""
+    while last > 0:
+        prefix = qs[: last + 1]
+        # the steps the spline passes through (SplinePath drops a step that repeats the one
+        # before): breakpoint i is step kept[i]
+        kept = np.flatnonzero(
+            np.concatenate([[True], np.linalg.norm(np.diff(prefix, axis=0), axis=1) > 1e-9])
+        )
+        if len(kept) < 2:  # the arm does not move: its one state was checked
+            return last, reason
+        path = SplinePath(prefix)
+        result = swept.check_path(path)
+        if result.free:
+            return last, reason
+        i = int(np.searchsorted(path.breakpoints, result.at, side="right"))
+        k = int(kept[min(max(i, 1), len(kept) - 1)])  # the first step past the unproven point
+        q = path(np.array([result.at]))[0]
+        if result.collides:
+            pairs = checker.colliding_pairs(q)
+            what = ", ".join(f"{a} – {b}" for a, b in pairs) or "(unknown pair)"
+            reason = f"collision before step {k} (continuous check): {what}"
+        else:
+            reason = (
+                f"the motion before step {k} could not be proven free within the continuous "
+                "check's budget"
+            )
+        last = k - 1
+    return 0, reason
 
 
 def _densify(
@@ -322,11 +375,13 @@ def compute_linear_sequence(
     avoid_collisions: bool = True,
     link: str | None = None,
     start: ArrayLike | None = None,
+    continuous: float | None = None,
 ) -> LinearSequence:
     """Straight moves of ``link`` through ``waypoints`` (world frame), as a Pilz LIN sequence:
     each corner is rounded by an arc that starts ``blend_radius`` [m] before it (at most half
     of each neighbouring move), so the motion flows through; ``blend_radius=0`` stops at every
-    corner. A reversal always stops. Orientation is interpolated along each move."""
+    corner. A reversal always stops. Orientation is interpolated along each move.
+    ``continuous``: as :func:`compute_cartesian_path`'s, for each stretch between stops."""
     g = group if isinstance(group, JointGroup) else scene.robot.group(group)
     tip = link or g.tip_link
     if number(blend_radius, "blend_radius [m]", PlanningError) < 0:
@@ -359,7 +414,9 @@ def compute_linear_sequence(
     done = 0.0
     for a, b in zip(stops[:-1], stops[1:], strict=True):
         dense = _rounded_poses(poses[a : b + 1], blend_radius, eef_step)
-        cp = compute_cartesian_path(scene, g, dense, eef_step, 0.0, avoid_collisions, tip, 0.05, q)
+        cp = compute_cartesian_path(
+            scene, g, dense, eef_step, 0.0, avoid_collisions, tip, 0.05, q, continuous=continuous
+        )
         piece_len = float(np.linalg.norm(np.diff(P[a : b + 1], axis=0), axis=1).sum())
         if cp.fraction < 1.0:
             if len(cp.path) > 1:

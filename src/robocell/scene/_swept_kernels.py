@@ -52,6 +52,8 @@ from robocell.scene._kernels import (
     triangle_box_overlap,
 )
 
+# the kinds of a path's pieces (SweptPath.piece_arrays)
+SEGMENT, ARC, CUBIC = 0, 1, 2
 TABLE_CELLS = 64  # at most, of a table looked up for one piece (else the trees decide)
 # triangle tests (GJK_COST each) a self pair's exact stage may make per state: two links that
 # skim each other (the UR5's wrist 2 and forearm) meet thousands of triangle pairs within the
@@ -582,14 +584,17 @@ def _clear_states(
 
 
 @njit(cache=True, inline="always")
-def _point(s, k, starts, origin, d1, d2, radius, arc, out):  # type: ignore[no-untyped-def]
+def _point(s, k, starts, origin, d1, d2, d3, radius, kind, out):  # type: ignore[no-untyped-def]
     """out (dof,): the path's position at arc length s on its piece k (piece_arrays)."""
     x = s - starts[k]
-    if arc[k]:
+    if kind[k] == ARC:
         r = radius[k]
         a, b = r * math.cos(x / r), r * math.sin(x / r)
         for j in range(out.shape[0]):
             out[j] = origin[k, j] + a * d1[k, j] + b * d2[k, j]
+    elif kind[k] == CUBIC:
+        for j in range(out.shape[0]):
+            out[j] = origin[k, j] + x * (d1[k, j] + x * (d2[k, j] + x * d3[k, j]))
     else:
         for j in range(out.shape[0]):
             out[j] = origin[k, j] + x * d1[k, j]
@@ -608,7 +613,7 @@ def prove_parts(
     checks those), the level they were left at, the states tested, and the middles (s, seg)
     of the parts proven NEAR (the caller checks those too). ``pieces``: the path's
     piece_arrays(); stamps from ``epoch`` on (one per state tested)."""
-    starts, origin, d1, d2, radius, arc = pieces
+    starts, origin, d1, d2, d3, radius, kind = pieces
     dof = origin.shape[1]
     tests = 0
     near_s = np.empty(0)
@@ -618,7 +623,7 @@ def prove_parts(
         qs = np.empty((n, dof))
         half = 0.5 * h
         for i in range(n):
-            _point(s0[i] + half[i], seg[i], starts, origin, d1, d2, radius, arc, qs[i])
+            _point(s0[i] + half[i], seg[i], starts, origin, d1, d2, d3, radius, kind, qs[i])
         said = clear_with_pads(
             qs, half, seg, inputs.model, inputs.scratch, epoch + tests, speed, tail, chain,
             revolute, own_a, own_b, body_rate, pair_rate, pieces_below, self_tolerance,

@@ -148,13 +148,21 @@ def motion_radii(checker: CollisionChecker) -> MotionRadii:
     return MotionRadii(R, chain, order)
 
 
+# the kinds of a path's pieces, in piece_arrays()
+SEGMENT, ARC, CUBIC = SW.SEGMENT, SW.ARC, SW.CUBIC
+
+
 class SweptPath(Protocol):
-    """A path in the group's joint space, parameterized by arc length ``s`` [rad] in
-    [0, length] (a BlendedPath is one): ``path(s)`` → (N, dof), ``path.at(s, piece)`` the
-    same for s known to lie on those pieces (``piece_arrays()`` describes them for compiled
-    code); ``speed_bounds()`` →
+    """A path in the group's joint space, parameterized by ``s`` in [0, length] (arc length
+    [rad] for a BlendedPath, chord length for a SplinePath): ``path(s)`` → (N, dof),
+    ``path.at(s, piece)`` the same for s known to lie on those pieces; ``speed_bounds()`` →
     (starts (S + 1,), bounds (S, dof)): along each of its S pieces (s from starts[i] to
-    starts[i + 1]) no joint moves faster than its bound per unit of s."""
+    starts[i + 1]) no joint moves faster than its bound per unit of s.
+
+    ``piece_arrays()`` describes the pieces for compiled code: (starts (S + 1,), origin, d1,
+    d2, d3 (S, dof), radius (S,), kind (S,) int8). On piece k, at x = s − starts[k], the
+    position is origin + x·d1 (kind SEGMENT), origin + r cos(x/r)·d1 + r sin(x/r)·d2 (ARC:
+    origin its centre, r its radius) or origin + x·d1 + x²·d2 + x³·d3 (CUBIC)."""
 
     @property
     def length(self) -> float: ...

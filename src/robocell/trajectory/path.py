@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from toppra.interpolator import AbstractGeometricPath
 
 from robocell.errors import PlanningError
+from robocell.scene.swept import ARC, CUBIC, SEGMENT
 from robocell.trajectory import _kernels as TK
 
 
@@ -164,10 +165,9 @@ class BlendedPath(_ArcLengthPath):
         return out[0] if scalar else out
 
     def piece_arrays(self) -> tuple[NDArray[Any], ...]:
-        """The pieces of :meth:`speed_bounds` as arrays, for compiled code: (starts (S + 1,),
-        origin, d1, d2 (S, dof), radius (S,), arc (S,) bool). On piece k, at local arc length
-        x = s − starts[k], the position is origin + x·d1 on a segment (d1 its direction), and
-        origin + r cos(x/r)·d1 + r sin(x/r)·d2 on an arc (origin its centre, r its radius)."""
+        """The pieces of :meth:`speed_bounds` as arrays, for compiled code (see
+        :class:`robocell.scene.swept.SweptPath`): segments (origin + x·d1, d1 the direction)
+        and arcs (origin the centre)."""
         if self._pieces is None:
             S = len(self._kinds)
             origin, d1, d2 = (
@@ -182,18 +182,20 @@ class BlendedPath(_ArcLengthPath):
                 else:
                     origin[k], d1[k], d2[k], r, _ = self._data[k]
                     radius[k] = r[0]
-            self._pieces = (self._starts, origin, d1, d2, radius, self._kinds == 1)
+            kinds = np.where(self._kinds == 1, ARC, SEGMENT).astype(np.int8)
+            d3 = np.zeros((S, self._dof))
+            self._pieces = (self._starts, origin, d1, d2, d3, radius, kinds)
         return self._pieces
 
     def at(self, s: NDArray[np.float64], piece: NDArray[np.int64]) -> NDArray[np.float64]:
         """(N, dof) positions at arc lengths ``s`` (N,) that lie on pieces ``piece`` (N,)
         (the pieces of :meth:`speed_bounds`): ``path(s)`` without looking the pieces up, in
         one batch of numpy steps."""
-        starts, origin, d1, d2, radius, arc = self.piece_arrays()
+        starts, origin, d1, d2, _, radius, kind = self.piece_arrays()
         local = (s - starts[piece])[:, None]
         r = radius[piece][:, None]
         th = local / r
-        on_arc = arc[piece][:, None]
+        on_arc = (kind[piece] == ARC)[:, None]
         a = np.where(on_arc, r * np.cos(th), local)
         b = np.where(on_arc, r * np.sin(th), 0.0)
         return origin[piece] + a * d1[piece] + b * d2[piece]
@@ -319,6 +321,45 @@ class SplinePath(_ArcLengthPath):
     def __call__(self, path_positions: ArrayLike, order: int = 0) -> NDArray[np.float64]:
         s = np.clip(np.asarray(path_positions, dtype=float), 0.0, self._length)
         return np.asarray(self._spline(s, order))
+
+    def piece_arrays(self) -> tuple[NDArray[Any], ...]:
+        """The spline's cubic pieces, one between each two waypoints, for compiled code (see
+        :class:`robocell.scene.swept.SweptPath`): origin + x·d1 + x²·d2 + x³·d3."""
+        c = self._spline.c  # (4, S, dof): x³, x², x, 1
+        S = c.shape[1]
+        return (
+            np.ascontiguousarray(self.breakpoints),
+            np.ascontiguousarray(c[3]),
+            np.ascontiguousarray(c[2]),
+            np.ascontiguousarray(c[1]),
+            np.ascontiguousarray(c[0]),
+            np.ones(S),
+            np.full(S, CUBIC, np.int8),
+        )
+
+    def at(self, s: NDArray[np.float64], piece: NDArray[np.int64]) -> NDArray[np.float64]:
+        """(N, dof) positions at ``s`` (N,) on pieces ``piece`` (N,) (between waypoints piece
+        and piece + 1)."""
+        c = self._spline.c
+        x = (s - self.breakpoints[piece])[:, None]
+        return np.asarray(c[3][piece] + x * (c[2][piece] + x * (c[1][piece] + x * c[0][piece])))
+
+    def speed_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(starts (S + 1,), bounds (S, dof)): the waypoints' s, and how fast each joint
+        moves at most between each two, per unit of s: |q_j'| = |3a x² + 2b x + c| is largest
+        at an end of the piece or where q_j'' vanishes within it."""
+        c = self._spline.c
+        h = np.diff(self.breakpoints)[:, None]
+        speed_0 = np.abs(c[2])
+        speed_1 = np.abs(3.0 * c[0] * h**2 + 2.0 * c[1] * h + c[2])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = np.where(c[0] != 0.0, -c[1] / (3.0 * c[0]), -1.0)
+        inside = (x > 0.0) & (x < h)
+        x = np.where(inside, x, 0.0)
+        speed_mid = np.where(inside, np.abs(3.0 * c[0] * x**2 + 2.0 * c[1] * x + c[2]), 0.0)
+        # a hair above, for the rounding of the products
+        bounds = np.maximum(np.maximum(speed_0, speed_1), speed_mid) * (1.0 + 1e-12) + 1e-15
+        return self.breakpoints.copy(), bounds
 
     def grid(self, step: float, arc_pieces: int = 12) -> NDArray[np.float64]:
         """Every waypoint and the midpoints between them, and at least every ``step``."""
