@@ -8,9 +8,11 @@ setting, the median and p95 planning time and the mean path length.
 
 Each setting is a dict of PlannerConfig fields. The order in which the settings run turns from
 problem to problem. Why each plan follows a baseline plan: when settings A and B simply took
-turns with the baseline (A, B, ompl, B, ompl, A, ...), A came after the baseline twice as often
-as B did, and a plan that follows the baseline's 10 ms of Python starts on cold caches and
-sleeping threads: the same setting measured 8–12 % slower as A than as B (session 24).
+turns with the baseline (A, B, ompl, then B, ompl, A, then ompl, A, B), A came after the
+baseline twice as often as B did, and a plan that follows the baseline's 10 ms of Python starts
+on cold caches and sleeping threads. Session 24, the final check in the calling thread (B)
+against on the kernel's threads (A), Panda table and bookshelf_thin sets: taking turns, B looked
+3–12 % faster; each after a baseline plan, it was 2–9 % slower.
 """
 
 from __future__ import annotations
