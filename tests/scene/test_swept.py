@@ -69,24 +69,18 @@ def test_points_move_no_farther_than_the_motion_radii_say(robot, request):
             assert np.abs(d1 - d0).max() <= rel[k] + 1e-12
 
 
-def test_a_motion_called_free_never_collides_and_one_not_called_free_does(cluttered):
-    """Random straight motions and bent paths among the obstacles (and the robot itself):
-    each the check calls free has no colliding sample 0.2 mrad apart (coal's exact check);
-    each it does not collides where it says (the checker's check, which counts bodies closer
-    than a micrometre as touching). The check's tolerances at 10 µm (not the default 0.1 mm
-    for the world and half a millimetre between links), so that pairs are proven exactly."""
+def _answers_hold(cluttered, paths):
+    """How many of ``paths`` (made from a random generator, or None to skip) the continuous
+    check calls free and not, each answer checked: a path called free has no colliding sample
+    0.2 mrad apart (coal's exact check); one not called free collides where the check says
+    (the checker's check, which counts bodies closer than a micrometre as touching). The
+    check's tolerances at 10 µm (not the default 0.1 mm for the world and half a millimetre
+    between links), so that pairs are proven exactly."""
     arm = cluttered.robot.group("arm")
     checker = cluttered.checker(arm)
     swept = SweptCheck(checker, tolerance=1e-5, self_tolerance=1e-5)
-    rng = np.random.default_rng(11)
     free_paths = colliding = 0
-    for _ in range(300):
-        a = rng.uniform(arm.lower, arm.upper)
-        b = a + rng.normal(size=arm.dof) * 0.6
-        c = b + rng.normal(size=arm.dof) * 0.6
-        if checker.check(np.array([a, b, c])).any():
-            continue
-        path = BlendedPath(np.array([a, b, c]), 0.05)
+    for path in paths(arm, checker):
         result = swept.check_path(path)
         if result.free:
             free_paths += 1
@@ -95,6 +89,22 @@ def test_a_motion_called_free_never_collides_and_one_not_called_free_does(clutte
         else:
             colliding += 1
             assert checker.check(path(np.array([result.at])))[0]
+    return free_paths, colliding
+
+
+def test_a_motion_called_free_never_collides_and_one_not_called_free_does(cluttered):
+    """Random bent paths among the obstacles (and the robot itself), corners rounded."""
+
+    def bent(arm, checker):
+        rng = np.random.default_rng(11)
+        for _ in range(300):
+            a = rng.uniform(arm.lower, arm.upper)
+            b = a + rng.normal(size=arm.dof) * 0.6
+            c = b + rng.normal(size=arm.dof) * 0.6
+            if not checker.check(np.array([a, b, c])).any():
+                yield BlendedPath(np.array([a, b, c]), 0.05)
+
+    free_paths, colliding = _answers_hold(cluttered, bent)
     assert free_paths >= 5 and colliding >= 5
 
 
@@ -186,23 +196,15 @@ def test_a_path_the_budget_cannot_prove_is_not_called_free(irb120, monkeypatch):
 def test_a_spline_called_free_never_collides_and_one_not_called_free_does(cluttered):
     """The same for cubic splines through random waypoints (the path a Cartesian motion's
     steps are executed along): its cubic pieces are proven as segments and arcs are."""
-    arm = cluttered.robot.group("arm")
-    checker = cluttered.checker(arm)
-    swept = SweptCheck(checker, tolerance=1e-5, self_tolerance=1e-5)
-    rng = np.random.default_rng(5)
-    free_paths = colliding = 0
-    for _ in range(300):
-        a = rng.uniform(arm.lower, arm.upper)
-        wp = a + np.cumsum(rng.normal(size=(4, arm.dof)) * 0.6, axis=0)
-        if checker.check(wp).any():
-            continue
-        path = SplinePath(wp)
-        result = swept.check_path(path)
-        if result.free:
-            free_paths += 1
-            s = np.linspace(0.0, path.length, int(path.length / 2e-4) + 2)
-            assert not checker.check_exact(path(s)).any()
-        else:
-            colliding += 1
-            assert checker.check(path(np.array([result.at])))[0]
+
+    def splines(arm, checker):
+        rng = np.random.default_rng(5)
+        for _ in range(300):
+            wp = rng.uniform(arm.lower, arm.upper) + np.cumsum(
+                rng.normal(size=(4, arm.dof)) * 0.6, axis=0
+            )
+            if not checker.check(wp).any():
+                yield SplinePath(wp)
+
+    free_paths, colliding = _answers_hold(cluttered, splines)
     assert free_paths >= 5 and colliding >= 5
