@@ -223,18 +223,14 @@ def _prove_spline(
     run) is proven free by the continuous check, and why it stops earlier ("" if it does
     not). A spline through fewer steps bends differently near its end, so each shorter one
     is proven anew."""
-    from robocell.trajectory.path import SplinePath
+    from robocell.trajectory.path import SplinePath, distinct_waypoints
 
     swept = checker.swept(tolerance)
     last = len(qs) - 1
     reason = ""
     while last > 0:
         prefix = qs[: last + 1]
-        # the steps the spline passes through (SplinePath drops a step that repeats the one
-        # before): breakpoint i is step kept[i]
-        kept = np.flatnonzero(
-            np.concatenate([[True], np.linalg.norm(np.diff(prefix, axis=0), axis=1) > 1e-9])
-        )
+        kept = distinct_waypoints(prefix)  # the spline's breakpoint i is step kept[i]
         if len(kept) < 2:  # the arm does not move: its one state was checked
             return last, reason
         path = SplinePath(prefix)

@@ -65,6 +65,17 @@ UNPROVEN, PROVEN, NEAR = 0, 1, 2
 
 
 @njit(cache=True, inline="always")
+def _push_children(stack, sp, n, left, right):  # type: ignore[no-untyped-def]
+    """The stack's new top after pushing node n's two children, or -1 if it is full (the
+    callers then answer "not proven")."""
+    if sp + 2 > stack.shape[0]:
+        return -1
+    stack[sp] = left[n]
+    stack[sp + 1] = right[n]
+    return sp + 2
+
+
+@njit(cache=True, inline="always")
 def _moved(R, t, p, i):  # type: ignore[no-untyped-def]
     """Point p[i, :3] moved by rotation R and translation t, as (x, y, z)."""
     x, y, z = p[i, 0], p[i, 1], p[i, 2]
@@ -113,11 +124,9 @@ def _body_near_obstacle(
         if _obstacle_distance(W[n, 0], W[n, 1], W[n, 2], kind, To, dims) > nodes[n, 3] + pad:
             continue
         if left[n] >= 0:
-            if sp + 2 > stack.shape[0]:
+            sp = _push_children(stack, sp, n, left, right)
+            if sp < 0:
                 return True
-            stack[sp] = left[n]
-            stack[sp + 1] = right[n]
-            sp += 2
             continue
         if not pieces:
             return True
@@ -192,11 +201,9 @@ def _body_near_body(
         ):
             continue
         if left[n] >= 0:
-            if sp + 2 > stack.shape[0]:
+            sp = _push_children(stack, sp, n, left, right)
+            if sp < 0:
                 return True
-            stack[sp] = left[n]
-            stack[sp + 1] = right[n]
-            sp += 2
             continue
         if not settle:
             return True
@@ -228,11 +235,9 @@ def _body_near_body(
                     if dx * dx + dy * dy + dz * dz > rr * rr:
                         continue
                     if left[m] >= 0:
-                        if fp + 2 > stack_f.shape[0]:
+                        fp = _push_children(stack_f, fp, m, left, right)
+                        if fp < 0:
                             return True
-                        stack_f[fp] = left[m]
-                        stack_f[fp + 1] = right[m]
-                        fp += 2
                         continue
                     for j in range(node_tri_start[m], node_tri_start[m + 1]):
                         tests += GJK_COST

@@ -20,6 +20,13 @@ from robocell.scene.swept import ARC, CUBIC, SEGMENT
 from robocell.trajectory import _kernels as TK
 
 
+def distinct_waypoints(waypoints: NDArray[np.float64]) -> NDArray[np.int64]:
+    """The indices of the (K, dof) waypoints a path goes through: the first, and each that
+    differs from the one before (a repeated point has no direction)."""
+    step = np.linalg.norm(np.diff(waypoints, axis=0), axis=1)
+    return np.flatnonzero(np.concatenate([[True], step > 1e-9]))
+
+
 class _ArcLengthPath(AbstractGeometricPath):  # type: ignore[misc]
     """What the joint paths share: parameterized by arc length ``s`` ∈ [0, length], stopping
     (if at all) at ``stops``; ``breakpoints`` are where a time parameterization needs grid
@@ -36,8 +43,7 @@ class _ArcLengthPath(AbstractGeometricPath):  # type: ignore[misc]
         wp = np.asarray(waypoints, dtype=float)
         if wp.ndim != 2 or wp.shape[0] < 2:
             raise PlanningError(f"a path needs (K >= 2, dof) waypoints, got shape {wp.shape}")
-        keep = np.concatenate([[True], np.linalg.norm(np.diff(wp, axis=0), axis=1) > 1e-9])
-        return wp[keep]
+        return wp[distinct_waypoints(wp)]
 
     @property
     def dof(self) -> int:
