@@ -70,8 +70,8 @@ def test_points_move_no_farther_than_the_motion_radii_say(robot, request):
 
 
 def _answers_hold(cluttered, paths):
-    """How many of ``paths`` (made from a random generator, or None to skip) the continuous
-    check calls free and not, each answer checked: a path called free has no colliding sample
+    """How many of the paths ``paths(arm, checker)`` yields the continuous check calls free
+    and how many not, each answer checked: a path called free has no colliding sample
     0.2 mrad apart (coal's exact check); one not called free collides where the check says
     (the checker's check, which counts bodies closer than a micrometre as touching). The
     check's tolerances at 10 µm (not the default 0.1 mm for the world and half a millimetre
