@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from numpy.typing import NDArray
 
 from robocell import Pose
 from robocell.errors import ModelError, PlanningError
@@ -273,13 +274,40 @@ def test_ompl_backend(walled, state_check):
     _assert_valid(walled, arm, plan)
 
 
+def test_ompl_plans_depend_on_their_own_seed_alone(walled):
+    """An OMPL plan repeats with its seed, whatever was planned before it in the process (OMPL
+    seeds its generators from one sequence per process, restarted before each plan)."""
+    pytest.importorskip("ompl")
+    config = PlannerConfig(shortcut=False)
+
+    def plan(seed: int) -> NDArray[np.float64]:
+        request = MotionPlanRequest(
+            "arm", JointGoal(GOAL), start=START, planner_id="RRTConnectkConfigDefault",
+            planning_time=5.0, seed=seed,
+        )  # fmt: skip
+        result = Planner(walled, config).plan(request)
+        assert result.success
+        return result.path
+
+    first = plan(3)
+    other = plan(4)
+    again = plan(3)
+    assert np.array_equal(first, again)
+    assert not (first.shape == other.shape and np.array_equal(first, other))
+
+
 def test_ompl_simplifies_as_moveit_does(walled):
     """With ompl_simplify, OMPL's own simplifier shortens OMPL's path (the native shortcut is
     skipped), and the path is validated as any other."""
     pytest.importorskip("ompl")
     arm = walled.robot.group("arm")
     request = MotionPlanRequest(
-        "arm", JointGoal(GOAL), start=START, planner_id="RRTConnect", planning_time=5.0, seed=3
+        "arm",
+        JointGoal(GOAL),
+        start=START,
+        planner_id="RRTConnectkConfigDefault",
+        planning_time=5.0,
+        seed=3,
     )
     raw = Planner(walled, PlannerConfig(shortcut=False)).plan(request)
     simplified = Planner(walled, PlannerConfig(ompl_simplify=True)).plan(request)
