@@ -1,3 +1,5 @@
+import json
+
 import pytest
 
 from robocell.apps import demo
@@ -57,6 +59,7 @@ def test_bench_planning_names_an_unknown_baseline(capsys):
         (["--robots", "ur6"], "unknown robot 'ur6'; known: panda, ur5"),
         (["--robots", "panda", "--sets", "table_pick", "--limit", "-1"], "--limit"),
         (["--robots", "panda", "--sets", "table_pick", "--timeout", "0"], "--timeout"),
+        (["--robots", "panda", "--sets", "table_pick", "--runs", "0"], "--runs"),
     ],
 )
 def test_bench_planning_names_an_unknown_robot_or_set_and_a_bad_limit(capsys, args, words):
@@ -64,3 +67,17 @@ def test_bench_planning_names_an_unknown_robot_or_set_and_a_bad_limit(capsys, ar
     missing URDF file, and --limit -1 ran all problems but the last."""
     assert main(["bench", "planning", *args]) == 1
     assert words in capsys.readouterr().err
+
+
+def test_bench_planning_runs_plan_each_problem_with_seeds_of_their_own(tmp_path, capsys):
+    """--runs 2: each problem planned twice (seeds --seed + problem + 1000 · run), the row's
+    figures over both plans."""
+    out = tmp_path / "bench.json"
+    args = ["--robots", "panda", "--sets", "table_pick", "--limit", "2", "--runs", "2"]
+    assert main(["bench", "planning", *args, "--seed", "5", "--json", str(out)]) == 0
+    assert "2 runs per problem" in capsys.readouterr().out
+    (row,) = json.loads(out.read_text())
+    assert (row["problems"], row["valid"], row["solved"], row["runs"]) == (2, 2, 4, 2)
+    seeds = sorted((r["problem"], r["seed"]) for r in row["results"])
+    k0, k1 = sorted({k for k, _ in seeds})
+    assert seeds == [(k0, 5 + k0), (k0, 1005 + k0), (k1, 5 + k1), (k1, 1005 + k1)]

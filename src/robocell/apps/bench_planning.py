@@ -52,6 +52,7 @@ class ProblemResult:
     problem: int
     planner: str
     valid: bool
+    seed: int = 0
     solved: bool = False
     time: float = float("nan")
     path_length: float = float("nan")
@@ -70,6 +71,7 @@ class SetRow:
     p95_ms: float
     median_length: float
     results: list[ProblemResult] = field(default_factory=list)
+    runs: int = 1  # plans per problem, each with a seed of its own: solved counts plans
 
 
 def default_mbm_dir() -> Path:
@@ -118,6 +120,49 @@ def set_problems(
         yield k, scene, load_request(model, folder / f"request{k:04d}.yaml", scene)
 
 
+RUN_SEEDS = 1000  # run r of problem k plans with seed (--seed) + k + RUN_SEEDS · r
+
+
+def _plan_once(
+    scene: PlanningScene,
+    robot: str,
+    set_name: str,
+    k: int,
+    req: PlanRequest,
+    planner: str,
+    valid: bool,
+    timeout: float,
+    seed: int,
+    continuous: bool,
+) -> ProblemResult:
+    """Problem k planned once by ``planner`` ("" for robocell, else a baseline) with ``seed``,
+    timed from the request to the validated path."""
+    r = ProblemResult(robot, set_name, k, planner or "robocell", valid, seed)
+    if not valid:
+        return r
+    planner_id, state_check, simplify = BASELINES[planner] if planner else ("", "kernel", False)
+    config = PlannerConfig(
+        ompl_state_check=state_check, ompl_simplify=simplify, continuous=continuous
+    )
+    request = MotionPlanRequest(
+        req.group,
+        JointGoal(req.goal),
+        start=req.start,
+        planning_time=timeout,
+        seed=seed,
+        planner_id=planner_id,
+        time_parameterize=False,
+    )
+    planning = Planner(scene, config)
+    t0 = time.perf_counter()
+    plan = planning.plan(request)
+    r.time = time.perf_counter() - t0
+    r.solved = plan.success
+    r.path_length = plan.path_length if plan.success else float("nan")
+    r.reason = plan.reason
+    return r
+
+
 def run_set(
     mbm: Path,
     model: RobotModel,
@@ -128,6 +173,7 @@ def run_set(
     timeout: float,
     seed: int,
     continuous: bool = False,
+    runs: int = 1,
 ) -> dict[str, SetRow]:
     results: dict[str, list[ProblemResult]] = {p: [] for p in planners}
     for k, scene, req in set_problems(mbm, model, robot, set_name, limit):
@@ -149,31 +195,24 @@ def run_set(
             and not bool(checker.check(np.array([req.start, req.goal])).any())
         )
         # the first plan in a new scene runs on cold caches (10 % slower, measured): each
-        # planner goes first on every other problem
-        for p in planners if k % 2 == 0 else planners[::-1]:
-            r = ProblemResult(robot, set_name, k, p or "robocell", valid)
-            if valid:
-                planner_id, state_check, simplify = BASELINES[p] if p else ("", "kernel", False)
-                config = PlannerConfig(
-                    ompl_state_check=state_check, ompl_simplify=simplify, continuous=continuous
+        # planner goes first on every other problem, and in every other run
+        for run in range(runs):
+            order = planners if (k + run) % 2 == 0 else planners[::-1]
+            for p in order:
+                results[p].append(
+                    _plan_once(
+                        scene,
+                        robot,
+                        set_name,
+                        k,
+                        req,
+                        p,
+                        valid,
+                        timeout,
+                        seed + k + RUN_SEEDS * run,
+                        continuous,
+                    )
                 )
-                planner = Planner(scene, config)
-                request = MotionPlanRequest(
-                    req.group,
-                    JointGoal(req.goal),
-                    start=req.start,
-                    planning_time=timeout,
-                    seed=seed + k,
-                    planner_id=planner_id,
-                    time_parameterize=False,
-                )
-                t0 = time.perf_counter()
-                plan = planner.plan(request)
-                r.time = time.perf_counter() - t0
-                r.solved = plan.success
-                r.path_length = plan.path_length if plan.success else float("nan")
-                r.reason = plan.reason
-            results[p].append(r)
     rows = {}
     for p, rs in results.items():
         solved = [r for r in rs if r.solved]
@@ -182,13 +221,14 @@ def run_set(
             robot,
             set_name,
             p or "robocell",
-            len(rs),
-            sum(r.valid for r in rs),
+            len(rs) // runs,
+            sum(r.valid for r in rs) // runs,
             len(solved),
             float(np.median(times)) if len(times) else float("nan"),
             float(np.percentile(times, 95)) if len(times) else float("nan"),
             float(np.median([r.path_length for r in solved])) if solved else float("nan"),
             rs,
+            runs,
         )
     return rows
 
@@ -203,6 +243,7 @@ def run(
     mbm: str | None = None,
     seed: int = 0,
     continuous: bool = False,
+    runs: int = 1,
 ) -> int:
     base = Path(mbm) if mbm else default_mbm_dir()
     baselines = baselines or []
@@ -214,6 +255,8 @@ def run(
         raise PlanningError(f"--limit must be at least 1 problem per set, got {limit}")
     if not timeout > 0:
         raise PlanningError(f"--timeout must be > 0 s, got {timeout}")
+    if runs < 1:
+        raise PlanningError(f"--runs must be at least 1 plan per problem, got {runs}")
     planners = ["", *baselines]
     header = (
         f"{'robot':6} {'set':17} {'planner':11} {'probs':>5} {'valid':>5} {'solved':>6} "
@@ -223,6 +266,12 @@ def run(
         header += f" {'speed-up':>9}"
     print(
         f"planning time budget {timeout} s per problem, first {limit} problems per set"
+        + (
+            f", {runs} runs per problem (seeds {seed} + problem + {RUN_SEEDS} × run; "
+            "solved counts plans)"
+            if runs > 1
+            else ""
+        )
         + (", paths proven free by the continuous check" if continuous else "")
     )
     print(header)
@@ -231,7 +280,7 @@ def run(
     for robot in robots:
         model = load_robot(base, robot)
         for s in sets:
-            rows = run_set(base, model, robot, s, planners, limit, timeout, seed, continuous)
+            rows = run_set(base, model, robot, s, planners, limit, timeout, seed, continuous, runs)
             native = rows[""]
             for p in planners:
                 row = rows[p]
@@ -257,5 +306,5 @@ def run(
         if r.valid and not r.solved
     ]
     for r in failed:
-        print(f"unsolved: {r.robot} {r.set} {r.problem}: {r.reason}")
+        print(f"unsolved: {r.robot} {r.set} {r.problem} (seed {r.seed}): {r.reason}")
     return 0

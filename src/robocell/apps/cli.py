@@ -52,7 +52,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     bp.add_argument("--json", help="write every problem's figures to this file")
     bp.add_argument("--mbm", help="folder holding ur5/ and panda/ (default: ../shared/bench/mbm)")
-    bp.add_argument("--seed", type=int, default=0)
+    bp.add_argument("--seed", type=int, default=0, help="problem k plans with seed + k")
+    bp.add_argument(
+        "--runs",
+        type=int,
+        default=1,
+        help="plans per problem, each with a seed of its own (MoveIt benchmark's runs): "
+        "medians over all of them",
+    )
     bp.add_argument(
         "--continuous",
         action="store_true",
@@ -96,6 +103,7 @@ def main(argv: list[str] | None = None) -> int:
                 args.mbm,
                 args.seed,
                 args.continuous,
+                args.runs,
             )
         parser.print_help()
         return 2
