@@ -77,7 +77,11 @@ def number(value: object, what: str, error: type[RobocellError]) -> float:
     """``value`` as a float when it is one finite real number (a Python or numpy number, not
     a bool or a string), else ``error`` naming ``what``: a user's ``"0.5"`` or ``None`` gets
     this message, not a TypeError from a comparison deep inside."""
-    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+    if type(value) is float or type(value) is int:
+        # the ABC check below took half of a request's checks: 27 against 15 µs at a plan's
+        # start, after other work (session 25)
+        x = float(value)
+    elif isinstance(value, numbers.Real) and not isinstance(value, bool):
         x = float(value)
     elif isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "fiu":
         x = float(value)

@@ -106,7 +106,7 @@ def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path
     import time
 
     import robocell.planning.planner as planner_module
-    from robocell.scene.checker import CHUNK, REST_CHUNK, threads_rested
+    from robocell.scene.checker import REST_CHUNK, threads_rested
     from tests.conftest import busy
 
     threads_rested()
@@ -142,7 +142,7 @@ def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path
             calls.clear()
     assert seen == [
         {("side_by_side", False), ("chunk", REST_CHUNK)},
-        {("side_by_side", None), ("chunk", CHUNK)},
+        {("side_by_side", None), ("chunk", planner_module.FINAL_CHUNK)},
     ]
     assert np.array_equal(paths[0], paths[1])
 

@@ -193,11 +193,13 @@ class JointGroup:
 
     def limit_violations(self, q: ArrayLike, tol: float = 1e-9) -> list[str]:
         """Human-readable list of the joints of ``q`` outside their limits."""
-        arr = self.as_joint_vector(q)
+        values = self.as_joint_vector(q).tolist()
+        # Python floats: each index into the arrays makes a numpy scalar
+        lower, upper = self.lower.tolist(), self.upper.tolist()
         out = []
         for i, name in enumerate(self.joint_names):
-            if not self.lower[i] - tol <= arr[i] <= self.upper[i] + tol:
-                out.append(f"{name}={arr[i]:.4f} not in [{self.lower[i]:.4f}, {self.upper[i]:.4f}]")
+            if not lower[i] - tol <= values[i] <= upper[i] + tol:
+                out.append(f"{name}={values[i]:.4f} not in [{lower[i]:.4f}, {upper[i]:.4f}]")
         return out
 
     def random(self, rng: np.random.Generator, n: int | None = None) -> NDArray[np.float64]:
