@@ -142,6 +142,33 @@ def test_repair_steps_around_an_obstacle_the_coarse_check_stepped_over(irb120):
     assert np.array_equal(repaired[0], a) and np.array_equal(repaired[-1], b)
     for p, q in zip(repaired[:-1], repaired[1:], strict=True):
         assert not checker.check_exact(Edges(None, 0.005).states(p, q, include_start=True)).any()
+    # the compiled repair (detours and the corners' check in one call) mends it too, and
+    # answers for the mended path as the final check does
+    from robocell.planning.planner import _first_hits
+
+    path = np.array([a, b, b + [0.0, 0.0, 0.0, 0.0, 0.3, 0.0]])  # a corner, its arc checked
+    hits = _first_hits(checker, path, planner.config.validation_resolution)
+    assert hits
+    mended = planner._mend(checker, path, arm, np.random.default_rng(0), 1e18, hits, 32)
+    assert mended is not None
+    new, (ok, dev, _, _) = mended
+    assert ok and np.array_equal(new[0], a)
+    assert not _first_hits(checker, new, planner.config.validation_resolution)
+    assert new.shape[0] > path.shape[0] and np.array_equal(new[-1], path[-1])
+    assert (ok, dev) == planner._validate(checker, new)[:2]
+
+
+def test_segment_hits_name_each_colliding_segment_and_its_stretch():
+    """Where each segment collides, from its states in order: the first colliding state, the
+    state before it (a segment's first state follows the previous segment's last), and the
+    state after the last colliding one, at most the segment's own last."""
+    from robocell.planning import _kernels as PK
+
+    segment = np.array([0, 0, 0, 0, 1, 1, 1, 2, 2, 2])
+    hit = np.array([0, 0, 1, 1, 0, 0, 0, 1, 0, 1], bool)
+    rows = PK.segment_hits(segment, hit)
+    assert rows.tolist() == [[0, 2, 1, 3], [2, 7, 6, 9]]
+    assert PK.segment_hits(segment, np.zeros(10, bool)).shape == (0, 4)
 
 
 def test_validation_names_the_segments_that_collide(walled):

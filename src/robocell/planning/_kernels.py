@@ -795,3 +795,99 @@ def _final_check(path, resolution, max_deviation, check_segments, model, scratch
     # what the caller need not look at: 0 when every state classified is FREE
     summary = (0 if free else 1) + (0 if arcs_free else 2)
     return states, segment, cls, flags, arcs, arc_cls, arc_flags, summary
+
+
+@njit(cache=True)
+def segment_hits(segment, hit):  # type: ignore[no-untyped-def]
+    """Where each straight segment of a path collides, from its segment states (``segment``:
+    the segment of each, in order, as :func:`segment_states` gives them; ``hit``: whether
+    each collides): one row per segment with a colliding state, (segment, its first
+    colliding state, the state before it, the state after its last colliding one or the
+    segment's last state). The state before a segment's first is the previous segment's
+    last: its start."""
+    n = segment.shape[0]
+    rows = np.empty((n, 4), np.int64)
+    m = 0
+    s = 0
+    while s < n:
+        k = segment[s]
+        end = s
+        while end + 1 < n and segment[end + 1] == k:
+            end += 1
+        first = -1
+        last = -1
+        for i in range(s, end + 1):
+            if hit[i]:
+                if first < 0:
+                    first = i
+                last = i
+        if first >= 0:
+            rows[m, 0] = k
+            rows[m, 1] = first
+            rows[m, 2] = first - 1
+            rows[m, 3] = min(last + 1, end)
+            m += 1
+        s = end + 1
+    return rows[:m].copy()
+
+
+@njit(cache=True)
+def repair_in(
+    path, segments, near, lower, upper, radii, seed, resolution, max_deviation, inputs, epoch,
+    chunk,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """The mending of a path's colliding segments and the check of the mended path's corners,
+    in one call (the planner's first repair: ``Planner._repair`` does the same detours, then
+    searches where they fail). Segment ``segments[h]`` (increasing) collides first at
+    ``near[h, 0]``, between the free states ``near[h, 1]`` and ``near[h, 2]``: the stretch
+    between those is replaced by a detour (:func:`detour`, seed ``seed`` + 2h), else the whole
+    segment by one (seed + 2h + 1).
+
+    Returns (whether every segment was mended, the mended path (the path if not), the first
+    segment that was not or −1, the epochs used, and :func:`_final_check`'s outputs for the
+    mended path's corners: its segments are free at ``resolution`` already, the states kept
+    from the path checked before and the detours' by them)."""
+    model, scratch = inputs.model, inputs.scratch
+    n, dof = path.shape
+    out = np.empty((n + 3 * segments.shape[0], dof))
+    out[0] = path[0]
+    m = 1
+    h = 0
+    used = 0
+    for k in range(n - 1):
+        b = path[k + 1]
+        if h >= segments.shape[0] or segments[h] != k:
+            out[m] = b
+            m += 1
+            continue
+        mended = False
+        for attempt in range(2):
+            p0 = near[h, 1] if attempt == 0 else path[k]
+            p1 = near[h, 2] if attempt == 0 else b
+            found, via, st = detour(
+                p0, p1, near[h, 0], lower, upper, radii, seed + 2 * h + attempt, resolution,
+                model, scratch, epoch + used,
+            )  # fmt: skip
+            used += st[2]
+            if found:
+                # an end of the stretch may be a or b
+                for p in (p0, via, p1, b):
+                    same = True
+                    for j in range(dof):
+                        if p[j] != out[m - 1, j]:
+                            same = False
+                            break
+                    if not same:
+                        out[m] = p
+                        m += 1
+                mended = True
+                break
+        if not mended:
+            checked = _final_check(path[:2], resolution, 0.0, False, model, scratch, epoch, chunk)
+            return False, path, k, used, checked
+        h += 1
+    new = out[:m].copy()
+    checked = _final_check(
+        new, resolution, max_deviation, False, model, scratch, epoch + used, chunk
+    )  # fmt: skip
+    return True, new, -1, used, checked

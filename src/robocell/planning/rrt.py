@@ -373,6 +373,12 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
         PK._clock()  # through numba's object mode (off Linux), 50 ms on its first call
         corner = np.array([q, q + 0.1, q + 0.2 * (np.arange(q.shape[0]) % 2)])  # final check
         PK.validate_path(corner, 0.01, 0.05, True, inputs, next_epoch(1 << 20), 64)
+        # a repair's detours and corners (Planner._mend), and where segments collide
+        PK.repair_in(
+            corner, np.zeros(1, np.int64), np.array([corner[:3]]), q - 1, q + 1, np.zeros(1),
+            0, 0.05, 0.05, inputs, next_epoch(1 << 20), 64,
+        )  # fmt: skip
+        PK.segment_hits(np.zeros(2, np.int64), np.zeros(2, np.bool_))
         precompile.wait()
     # the searches side by side (the kernel's threads start on the first parallel call) and
     # one after the other (rrt_connect_compiled)
