@@ -57,6 +57,8 @@ NATIVE_PLANNERS = ("", "rrtconnect", "robocell")
 # the same paths checked over and over: Panda table_under_pick 261 µs against 274 with 64,
 # 268 with 16; table_pick 164 against 168 and 165)
 FINAL_CHUNK = 32
+# waypoints a detour tries, at radii from 0.02 to 0.4 rad (_radii)
+DETOUR_TRIES = 24
 CheckOutputs = tuple[NDArray, ...]  # _kernels.validate_path's
 
 
@@ -502,7 +504,7 @@ class Planner:
             np.ascontiguousarray(path, dtype=float), ks, near,
             np.ascontiguousarray(group.lower, dtype=float),
             np.ascontiguousarray(group.upper, dtype=float),
-            _radii(24), seed_of(rng), self.config.validation_resolution,
+            _radii(DETOUR_TRIES), seed_of(rng), self.config.validation_resolution,
             self.config.max_deviation, checker.compiled_inputs, next_epoch(1 << 40), chunk,
         )  # fmt: skip
         if ok:
@@ -563,7 +565,7 @@ class Planner:
         group: JointGroup,
         rng: Rng,
         near: NDArray[np.float64],
-        tries: int = 24,
+        tries: int = DETOUR_TRIES,
     ) -> NDArray[np.float64] | None:
         """A waypoint near ``near`` through which a → waypoint → b is free at the validation
         resolution, or None. A segment the search found free at its coarser resolution
