@@ -81,3 +81,37 @@ def test_bench_planning_runs_plan_each_problem_with_seeds_of_their_own(tmp_path,
     seeds = sorted((r["problem"], r["seed"]) for r in row["results"])
     k0, k1 = sorted({k for k, _ in seeds})
     assert seeds == [(k0, 5 + k0), (k0, 1005 + k0), (k1, 5 + k1), (k1, 1005 + k1)]
+
+
+def test_speed_up_interval_holds_the_ratio_and_follows_each_problem():
+    """The speed-up's interval (bootstrap over problems, all plans of a problem together): a
+    baseline uniformly 10x slower gives 10 exactly; with times that vary from problem to
+    problem, the interval holds the set's ratio of medians, is as wide as the spread allows,
+    and repeats for the same seed; invalid problems are left out."""
+    from robocell.apps.bench_planning import ProblemResult, ratio_interval
+
+    def results(times, planner, runs=1):
+        return [
+            ProblemResult("panda", "s", k, planner, valid=t == t, time=t)
+            for k, t in enumerate(times)
+            for _ in range(runs)
+        ]
+
+    base = [0.001 * (1 + k % 7) for k in range(50)]
+    lo, hi = ratio_interval(results(base, "robocell"), results([10 * t for t in base], "ompl"))
+    assert lo == pytest.approx(10.0) and hi == pytest.approx(10.0)
+
+    import numpy as np
+
+    rng = np.random.default_rng(3)
+    native = list(rng.uniform(0.5e-3, 2e-3, 50))
+    other = list(rng.uniform(5e-3, 30e-3, 50))
+    a, b = results(native, "robocell", runs=2), results(other, "ompl", runs=2)
+    lo, hi = ratio_interval(a, b)
+    ratio = np.median(other) / np.median(native)
+    assert lo < ratio < hi and hi / lo > 1.2
+    assert (lo, hi) == ratio_interval(a, b)
+    invalid = results([*native[:-1], float("nan")], "robocell")
+    assert np.isfinite(ratio_interval(invalid, results(other, "ompl"))).all()
+    nothing = results([float("nan")] * 3, "robocell")
+    assert np.isnan(ratio_interval(nothing, results(other[:3], "ompl"))).all()

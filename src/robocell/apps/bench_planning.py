@@ -18,6 +18,9 @@ shortcutting, the final check at fine resolution); scene loading and the checker
 construction (its sphere model, and coal's model of the scene for ``ompl``) are not in it, as
 in MoveIt's benchmarks. The planners take turns going first in each new scene.
 
+Each baseline's row gives its speed-up (its median over the native planner's) and that ratio's
+95 % interval over the set's problems (:func:`ratio_interval`).
+
 Problem k plans with seed ``--seed`` + k, OMPL's plans too (OMPL's seed sequence restarts
 before each plan), so that a run repeats whatever ran before it in the process. ``--runs N``
 plans each problem N times, run r with seed ``--seed`` + k + 1000·r, as MoveIt's benchmarks run
@@ -79,6 +82,54 @@ class SetRow:
     median_length: float
     results: list[ProblemResult] = field(default_factory=list)
     runs: int = 1  # plans per problem, each with a seed of its own: solved counts plans
+    # a baseline's row: its median over the native planner's, and that ratio's 95 % interval
+    # over the set's problems (ratio_interval)
+    speedup: float = float("nan")
+    speedup_low: float = float("nan")
+    speedup_high: float = float("nan")
+
+
+RESAMPLES = 2000  # of the problems, for a speed-up's interval
+
+
+def ratio_interval(
+    native: list[ProblemResult],
+    baseline: list[ProblemResult],
+    level: float = 0.95,
+    resamples: int = RESAMPLES,
+    seed: int = 0,
+) -> tuple[float, float]:
+    """The ``level`` interval of the ratio of the baseline's median planning time to the
+    native planner's over a set, by the bootstrap over its valid problems: the problems drawn
+    again with replacement, each with all its plans by both planners, so that a problem that
+    is hard for both weighs on both medians together. It says how far another draw of 50
+    problems like these could move the ratio, not how far the machine's load can (the
+    planners take turns, problem by problem, to share that). NaN when no problem is valid."""
+    problems = sorted({r.problem for r in native if r.valid})
+    if not problems:
+        return float("nan"), float("nan")
+    index = {k: i for i, k in enumerate(problems)}
+    runs = max(1, len([r for r in native if r.valid]) // len(problems))
+
+    def table(results: list[ProblemResult]) -> np.ndarray:
+        # (problems, runs) planning times; a problem's runs in the order they ran
+        out = np.full((len(problems), runs), np.nan)
+        seen = np.zeros(len(problems), np.int64)
+        for r in results:
+            if r.valid and r.problem in index:
+                i = index[r.problem]
+                out[i, seen[i]] = r.time
+                seen[i] += 1
+        return out
+
+    a, b = table(native), table(baseline)
+    draws = np.random.default_rng(seed).integers(0, len(problems), (resamples, len(problems)))
+    ratios = np.median(b[draws].reshape(resamples, -1), axis=1) / np.median(
+        a[draws].reshape(resamples, -1), axis=1
+    )
+    tail = 50.0 * (1.0 - level)
+    low, high = np.percentile(ratios, [tail, 100.0 - tail])
+    return float(low), float(high)
 
 
 def default_mbm_dir() -> Path:
@@ -270,7 +321,7 @@ def run(
         f"{'median ms':>10} {'p95 ms':>9} {'length':>7}"
     )
     if baselines:
-        header += f" {'speed-up':>9}"
+        header += f" {'speed-up':>9} {'95 % interval':>13}"
     print(
         f"planning time budget {timeout} s per problem, first {limit} problems per set"
         + (
@@ -297,7 +348,9 @@ def run(
                     f"{row.median_length:7.2f}"
                 )
                 if p:
-                    line += f" {row.median_ms / native.median_ms:8.1f}x"
+                    row.speedup = row.median_ms / native.median_ms
+                    row.speedup_low, row.speedup_high = ratio_interval(native.results, row.results)
+                    line += f" {row.speedup:8.1f}x {row.speedup_low:6.1f}–{row.speedup_high:<5.1f}"
                 print(line, flush=True)
                 all_rows.append(row)
     if json_path:
