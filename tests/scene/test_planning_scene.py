@@ -228,6 +228,35 @@ def test_a_batch_after_a_rest_is_checked_in_the_calling_thread(scene, irb120, mo
     assert np.array_equal(answers[0], answers[1]) and answers[0].any() and not answers[0].all()
 
 
+def test_the_threads_chunks_answer_as_the_calling_thread_does(irb120):
+    """The kernel's threads take chunks of a batch in turn: every state is classified once,
+    with the same class and unsure pairs as in the calling thread, whatever the chunk's size
+    (one state, fewer chunks than threads, a chunk that does not divide the batch), past a
+    mesh that leaves states unsure."""
+    from robocell.scene import _kernels as K
+    from robocell.scene.checker import next_epoch
+    from tests.conftest import mbm_dir
+
+    scene = PlanningScene(irb120)
+    stl = mbm_dir() / "ur5" / "meshes" / "robotiq_fts300.stl"
+    scene.add_mesh("sensor", Pose((0.35, 0.0, 0.45)), stl, scale=(3, 3, 3))
+    arm = irb120.group("arm")
+    checker = scene.checker(arm)
+    inputs = checker.compiled_inputs
+    many = arm.random(np.random.default_rng(5), 4000)
+    first, _ = K.classify_serial_in(many, inputs, next_epoch(4000), True, False, 0)
+    # a batch of 301 with unsure states (near contact) among the others
+    pick = np.concatenate([np.flatnonzero(first == K.UNSURE)[:60], np.arange(241)])
+    qs = np.ascontiguousarray(many[np.random.default_rng(6).permutation(pick)])
+    cls, flags = K.classify_serial_in(qs, inputs, next_epoch(301), True, False, 0)
+    assert {K.FREE, K.HIT, K.UNSURE} <= set(cls.tolist())  # the batch has all three
+    for chunk in (1, 7, 64, 200, 301, 1000):
+        got, got_flags = K.classify_in(qs, inputs, next_epoch(301), True, chunk)
+        assert np.array_equal(got, cls), chunk
+        unsure = cls == K.UNSURE
+        assert np.array_equal(got_flags[unsure], flags[unsure]), chunk
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_fast_check_never_calls_a_colliding_state_free(scene, irb120, seed):
     scene.add_sphere("ball", Pose((0.3, -0.3, 0.4)), 0.08)

@@ -59,9 +59,7 @@ CHUNK = 64  # states per kernel task; a batch of at most one chunk runs in the c
 # and its final check in the calling thread too. Two threads classify 480–7680 states only
 # 1.3–1.6× as fast as one here.
 REST_CHUNK = 4096
-# scratch slots after the kernel's threads', for the planner's searches that run without the
-# GIL (robocell.planning.rrt): no other kernel call touches them
-SEARCH_SLOTS = 2
+SEARCH_SLOTS = K.SEARCH_SLOTS  # scratch slots for the planner's searches (see there)
 UNION_INNER = 32  # inner spheres of a rigid cluster's union body (the first pass's hit test)
 UNION_MARGIN = 1e-4  # [m] a cluster union's spheres are grown by (_RobotTables.union)
 
