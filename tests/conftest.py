@@ -5,10 +5,14 @@ from __future__ import annotations
 import os
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
 from robocell.robot import RobotModel
+
+if TYPE_CHECKING:
+    from robocell.scene import PlanningScene
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -34,6 +38,18 @@ def busy(seconds: float) -> None:
     end = time.perf_counter() + seconds
     while time.perf_counter() < end:
         pass
+
+
+def past_a_mesh(robot: RobotModel) -> PlanningScene:
+    """A scene with a mesh obstacle in reach of the IRB 120's arm (a force sensor's mesh,
+    three times its size): its triangles leave states near it unsure at the sphere level."""
+    from robocell.geometry import Pose
+    from robocell.scene import PlanningScene
+
+    scene = PlanningScene(robot)
+    stl = mbm_dir() / "ur5" / "meshes" / "robotiq_fts300.stl"
+    scene.add_mesh("sensor", Pose((0.35, 0.0, 0.45)), stl, scale=(3, 3, 3))
+    return scene
 
 
 def load_mbm(robot: str) -> RobotModel:

@@ -382,13 +382,10 @@ def test_final_check_classifies_each_state_as_the_checker_does(irb120):
     from robocell.planning import _kernels as PK
     from robocell.scene import _kernels as SK
     from robocell.scene.checker import CHUNK, next_epoch
-    from tests.conftest import mbm_dir
+    from tests.conftest import past_a_mesh
 
-    scene = PlanningScene(irb120)
-    stl = mbm_dir() / "ur5" / "meshes" / "robotiq_fts300.stl"
-    scene.add_mesh("sensor", Pose((0.35, 0.0, 0.45)), stl, scale=(3, 3, 3))
     arm = irb120.group("arm")
-    checker = scene.checker(arm)
+    checker = past_a_mesh(irb120).checker(arm)
     warm_up(checker)
     rng = np.random.default_rng(11)
     seen = set()

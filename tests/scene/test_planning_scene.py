@@ -235,13 +235,10 @@ def test_the_threads_chunks_answer_as_the_calling_thread_does(irb120):
     mesh that leaves states unsure."""
     from robocell.scene import _kernels as K
     from robocell.scene.checker import next_epoch
-    from tests.conftest import mbm_dir
+    from tests.conftest import past_a_mesh
 
-    scene = PlanningScene(irb120)
-    stl = mbm_dir() / "ur5" / "meshes" / "robotiq_fts300.stl"
-    scene.add_mesh("sensor", Pose((0.35, 0.0, 0.45)), stl, scale=(3, 3, 3))
     arm = irb120.group("arm")
-    checker = scene.checker(arm)
+    checker = past_a_mesh(irb120).checker(arm)
     inputs = checker.compiled_inputs
     many = arm.random(np.random.default_rng(5), 4000)
     first, _ = K.classify_serial_in(many, inputs, next_epoch(4000), True, False, 0)
