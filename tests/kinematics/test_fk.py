@@ -3,6 +3,7 @@ import pinocchio as pin
 import pytest
 
 from robocell.errors import ModelError
+from robocell.kinematics import _kernels as K
 from robocell.kinematics import fk, fk_batch, jacobian, link_poses, link_poses_batch
 
 
@@ -88,6 +89,53 @@ def test_jacobian_matches_finite_differences(request, robot_name, group, link):
             w = np.array([dR[2, 1] - dR[1, 2], dR[0, 2] - dR[2, 0], dR[1, 0] - dR[0, 1]]) / (2 * h)
             assert np.allclose(J[:3, k], v, atol=1e-5)
             assert np.allclose(J[3:, k], w, atol=1e-5)
+
+
+def test_sincos_polynomials_match_libm():
+    # the block kinematics' sin and cos (fdlibm's polynomials after a two-part reduction)
+    x = np.concatenate(
+        [np.linspace(-20.0, 20.0, 400_001), np.pi / 4 * np.arange(-64, 65), [0.0, -0.0, 1e-300]]
+    )
+    sin_x, cos_x = np.empty_like(x), np.empty_like(x)
+    K.sincos_block(x, sin_x, cos_x)
+    assert np.abs(sin_x - np.sin(x)).max() <= 2.3e-16
+    assert np.abs(cos_x - np.cos(x)).max() <= 2.3e-16
+    # an angle beyond the polynomials' range (or NaN) sends its block to libm: the same values
+    far = np.array([0.5, 3.0e5, -2.0, np.nan])
+    K.sincos_block(far, sin_x[:4], cos_x[:4])
+    assert np.array_equal(sin_x[:4], np.sin(far), equal_nan=True)
+    assert np.array_equal(cos_x[:4], np.cos(far), equal_nan=True)
+
+
+@pytest.mark.parametrize("robot_name", ["irb120", "ur5e", "mbm_ur5", "mbm_panda"])
+def test_block_kinematics_equals_one_state_at_a_time(request, robot_name):
+    # fk_block (a block of states joint by joint, as the collision kernel places bodies) gives
+    # every link the pose fk_into gives it, for every group: revolute joints about any axis,
+    # prismatic fingers, mimic joints, variables outside the group at their base values
+    robot = request.getfixturevalue(robot_name)
+    t = robot.tree
+    arrays = (t.parent_link, t.child_link, t.origin, t.type, t.axis, t.var, t.mult, t.offset)
+    joints = np.arange(len(t.parent_link), dtype=np.int64)
+    root = robot.link_index(robot.root_link)
+    rng = np.random.default_rng(11)
+    base = robot.default_positions.copy()
+    base += rng.uniform(-0.3, 0.3, base.shape)
+    for name in robot.groups:
+        g = robot.group(name)
+        column = np.full(robot.n_variables, -1, np.int64)
+        column[g.indices] = np.arange(g.dof)
+        qs = np.vstack([g.random(rng, 20), rng.uniform(-40.0, 40.0, (5, g.dof))])
+        Ts = np.full((t.n_links, 12, 16), np.nan)
+        work = np.empty((3, 16))
+        T = np.empty((t.n_links, 4, 4))
+        for s0, n in [(0, 1), (1, 3), (4, 16), (20, 5)]:
+            K.fk_block(qs, s0, n, column, base, joints, root, *arrays, Ts, *work)
+            for s in range(n):
+                full = base.copy()
+                full[g.indices] = qs[s0 + s]
+                K.fk_into(full, joints, root, *arrays, T)
+                block = Ts[:, :, s].reshape(-1, 3, 4)
+                assert np.allclose(block, T[:, :3, :], rtol=0, atol=1e-13), (name, s0 + s)
 
 
 def test_relative_frames(irb120):
