@@ -232,7 +232,9 @@ def test_the_threads_chunks_answer_as_the_calling_thread_does(irb120):
     """The kernel's threads take chunks of a batch in turn: every state is classified once,
     with the same class and unsure pairs as in the calling thread, whatever the chunk's size
     (one state, fewer chunks than threads, a chunk that does not divide the batch), past a
-    mesh that leaves states unsure."""
+    mesh that leaves states unsure. A chunk of one state is placed alone (fk_into), larger ones
+    a block of states at a time (fk_block), as are the calling thread's; a scan that stops at
+    the first state not FREE places its first state alone, then blocks of 8 and 16."""
     from robocell.scene import _kernels as K
     from robocell.scene.checker import next_epoch
     from tests.conftest import past_a_mesh
@@ -252,6 +254,15 @@ def test_the_threads_chunks_answer_as_the_calling_thread_does(irb120):
         assert np.array_equal(got, cls), chunk
         unsure = cls == K.UNSURE
         assert np.array_equal(got_flags[unsure], flags[unsure]), chunk
+    # a scan through k free states to a hit or an unsure one: its blocks end anywhere
+    free = qs[cls == K.FREE][:40]
+    for stopper in (K.HIT, K.UNSURE):
+        q_stop = qs[cls == stopper][:1]
+        for k in (0, 1, 5, 9, 24, 33):
+            sub = np.ascontiguousarray(np.vstack([free[:k], q_stop, free[k:]]))
+            got, _ = K.classify_serial_in(sub, inputs, next_epoch(len(sub)), True, True, 0)
+            expected = [K.FREE] * k + [stopper] + [K.UNCHECKED] * (len(sub) - k - 1)
+            assert got.tolist() == expected, (stopper, k)
 
 
 @pytest.mark.parametrize("seed", [0, 1])

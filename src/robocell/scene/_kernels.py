@@ -24,7 +24,7 @@ from numba import njit, prange, types
 from numba.experimental import structref
 from numpy.typing import NDArray
 
-from robocell.kinematics._kernels import block_lanes, fk_block
+from robocell.kinematics._kernels import block_lanes, fk_block, fk_into
 
 FREE, HIT, UNSURE = 0, 1, 2
 UNCHECKED = 3  # a state a scan stopped before
@@ -1498,7 +1498,8 @@ def _range_buffers(model):  # type: ignore[no-untyped-def]
     :func:`_body_clear`, which bodies sit at their link's frame (``body_T`` the identity:
     their pose is the link's, copied), and for :func:`fk_block` a block's link poses (L, 12,
     BLOCK), each variable's column in the states (-1 outside the group), and work rows (15,
-    BLOCK): fk_block's three, then a block's pose of one body (12 rows)."""
+    BLOCK): fk_block's three, then a block's pose of one body (12 rows); and the link poses of
+    one state placed alone (L, 4, 4)."""
     group_idx, q_base, _, root, parent, child = model[:6]
     body_T = model[13]
     plain = np.ones(body_T.shape[0], np.bool_)
@@ -1525,6 +1526,7 @@ def _range_buffers(model):  # type: ignore[no-untyped-def]
         np.zeros((n_links, 12, BLOCK)),
         column,
         np.zeros((15, BLOCK)),
+        np.zeros((n_links, 4, 4)),
     )
 
 
@@ -1551,6 +1553,45 @@ def _classify_range(
         s0, s1, qs, model, W, stamp, Wi, stamp_i, seen, pairs, epoch, flags, record_flags,
         scratch_row, out, buffers, stop_early,
     )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _place_block(qs, s0, n, model, plain, TBb, Ts, column, work):  # type: ignore[no-untyped-def]
+    """The body poses of states ``qs[s0 : s0 + n]`` into ``TBb[:n]`` (n, B, 3, 4): their links
+    placed at once (:func:`fk_block`, on SIMD lanes), then each body's pose."""
+    group_idx, q_base, joints, root, parent, child, origin, jtype, axis, var, mult, offset = model[
+        :12
+    ]
+    body_link, body_T = model[12], model[13]
+    fk_block(
+        qs, s0, n, column, q_base, joints, root, parent, child, origin, jtype, axis, var, mult,
+        offset, Ts, work[0], work[1], work[2],
+    )  # fmt: skip
+    lanes = block_lanes(n)
+    Tb = work[3:15]
+    for b in range(body_link.shape[0]):
+        L = body_link[b]
+        if plain[b]:
+            # the link's pose (9 of a Panda's 12 bodies, 9 of a UR5's 19)
+            for k in range(n):
+                for r in range(12):
+                    TBb[k, b, r // 4, r % 4] = Ts[L, r, k]
+            continue
+        # the link's pose times the body's, on SIMD lanes, then state by state (a UR5's
+        # bodies placed in 122 instead of 168 ns a state, measured)
+        for i in range(3):
+            for j in range(4):
+                m0, m1, m2 = body_T[b, 0, j], body_T[b, 1, j], body_T[b, 2, j]
+                m3 = 1.0 if j == 3 else 0.0
+                r = 4 * i
+                for k in range(lanes):
+                    Tb[r + j, k] = (
+                        Ts[L, r, k] * m0 + Ts[L, r + 1, k] * m1 + Ts[L, r + 2, k] * m2
+                        + Ts[L, r + 3, k] * m3
+                    )  # fmt: skip
+        for k in range(n):
+            for r in range(12):
+                TBb[k, b, r // 4, r % 4] = Tb[r, k]
 
 
 @njit(cache=True, inline="always")
@@ -1581,47 +1622,37 @@ def _classify_states(
 
     The bodies are placed a block of states at a time (:func:`fk_block`, on SIMD lanes): a
     Panda's final-check states took 630 instead of 910 ns each, a UR5's 790 instead of 980
-    (session 28, measured). A scan that stops early starts with a block of 8 (420 ns for a
-    Panda, against 265 for one state alone) and doubles it up to BLOCK."""
+    (session 28, measured). A scan that stops early places its first state alone (a block of
+    8 took 420 ns for a Panda, one state 265), then blocks of 8, then of BLOCK."""
     group_idx, q_base, joints, root, parent, child, origin, jtype, axis, var, mult, offset = model[
         :12
     ]
     body_link, body_T = model[12], model[13]
     B = body_link.shape[0]
-    TBb, q, stack, stack2, stack3, status, mark, plain, Ts, column, work = buffers
-    size = 8 if stop_early else BLOCK
+    TBb, q, stack, stack2, stack3, status, mark, plain, Ts, column, work, T = buffers
+    # a scan places its first state alone: most edges a search rejects collide there
+    size = 1 if stop_early else BLOCK
     b0 = s0
     while b0 < s1:
         n = min(size, s1 - b0)
-        fk_block(
-            qs, b0, n, column, q_base, joints, root, parent, child, origin, jtype, axis, var,
-            mult, offset, Ts, work[0], work[1], work[2],
-        )  # fmt: skip
-        lanes = block_lanes(n)
-        Tb = work[3:15]
-        for b in range(B):
-            L = body_link[b]
-            if plain[b]:
-                # the link's pose (9 of a Panda's 12 bodies, 9 of a UR5's 19)
-                for k in range(n):
-                    for r in range(12):
-                        TBb[k, b, r // 4, r % 4] = Ts[L, r, k]
-                continue
-            # the link's pose times the body's, on SIMD lanes, then state by state (a UR5's
-            # bodies placed in 122 instead of 168 ns a state, measured)
-            for i in range(3):
-                for j in range(4):
-                    m0, m1, m2 = body_T[b, 0, j], body_T[b, 1, j], body_T[b, 2, j]
-                    m3 = 1.0 if j == 3 else 0.0
-                    r = 4 * i
-                    for k in range(lanes):
-                        Tb[r + j, k] = (
-                            Ts[L, r, k] * m0 + Ts[L, r + 1, k] * m1 + Ts[L, r + 2, k] * m2
-                            + Ts[L, r + 3, k] * m3
-                        )  # fmt: skip
-            for k in range(n):
-                for r in range(12):
-                    TBb[k, b, r // 4, r % 4] = Tb[r, k]
+        if n == 1:
+            for i in range(group_idx.shape[0]):
+                q[group_idx[i]] = qs[b0, i]
+            fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
+            for b in range(B):
+                L = body_link[b]
+                for i in range(3):
+                    for j in range(4):
+                        TBb[0, b, i, j] = (
+                            T[L, i, j]
+                            if plain[b]
+                            else T[L, i, 0] * body_T[b, 0, j]
+                            + T[L, i, 1] * body_T[b, 1, j]
+                            + T[L, i, 2] * body_T[b, 2, j]
+                            + (T[L, i, 3] if j == 3 else 0.0)
+                        )
+        else:
+            _place_block(qs, b0, n, model, plain, TBb, Ts, column, work)
         for k in range(n):
             s = b0 + k
             for i in range(group_idx.shape[0]):
@@ -1648,7 +1679,7 @@ def _classify_states(
             if stop_early and out[s] != FREE:
                 return
         b0 += n
-        size = min(2 * size, BLOCK)
+        size = min(8 * size, BLOCK)  # 1, 8, 16
 
 
 @njit(cache=True, inline="always")
