@@ -1556,6 +1556,28 @@ def _classify_range(
 
 
 @njit(cache=True, inline="always")
+def place_bodies(T, body_link, body_T, plain, TB):  # type: ignore[no-untyped-def]
+    """The body poses TB (B, 3, 4) of one state from its link poses T (L, 4, 4): each body's
+    link pose times the body's (``body_T``), copied where the body sits at its link's frame
+    (``plain``: 9 of a Panda's 12 bodies, without the product's multiplications by 1 and 0)."""
+    for b in range(body_link.shape[0]):
+        L = T[body_link[b]]
+        if plain[b]:
+            for i in range(3):
+                for j in range(4):
+                    TB[b, i, j] = L[i, j]
+            continue
+        for i in range(3):
+            for j in range(4):
+                TB[b, i, j] = (
+                    L[i, 0] * body_T[b, 0, j]
+                    + L[i, 1] * body_T[b, 1, j]
+                    + L[i, 2] * body_T[b, 2, j]
+                    + (L[i, 3] if j == 3 else 0.0)
+                )
+
+
+@njit(cache=True, inline="always")
 def _place_block(qs, s0, n, model, plain, TBb, Ts, column, work):  # type: ignore[no-untyped-def]
     """The body poses of states ``qs[s0 : s0 + n]`` into ``TBb[:n]`` (n, B, 3, 4): their links
     placed at once (:func:`fk_block`, on SIMD lanes), then each body's pose."""
@@ -1596,24 +1618,9 @@ def _place_block(qs, s0, n, model, plain, TBb, Ts, column, work):  # type: ignor
 
 @njit(cache=True, inline="always")
 def _classify_states(
-    s0,
-    s1,
-    qs,
-    model,
-    W,
-    stamp,
-    Wi,
-    stamp_i,
-    seen,
-    pairs,
-    epoch,
-    flags,
-    record_flags,
-    scratch_row,
-    out,
-    buffers,
-    stop_early=False,
-):  # type: ignore[no-untyped-def]
+    s0, s1, qs, model, W, stamp, Wi, stamp_i, seen, pairs, epoch, flags, record_flags,
+    scratch_row, out, buffers, stop_early=False,
+):  # type: ignore[no-untyped-def]  # fmt: skip
     """Classify states s0..s1-1 with one thread's scratch (W, stamp, Wi, stamp_i, seen, pairs).
     Stamps hold ``epoch + s`` for the state that last placed a sphere, so the scratch is
     reused across calls without being reset. ``buffers``: :func:`_range_buffers`.
@@ -1628,7 +1635,6 @@ def _classify_states(
         :12
     ]
     body_link, body_T = model[12], model[13]
-    B = body_link.shape[0]
     TBb, q, stack, stack2, stack3, status, mark, plain, Ts, column, work, T = buffers
     # a scan places its first state alone: most edges a search rejects collide there
     size = 1 if stop_early else BLOCK
@@ -1639,18 +1645,7 @@ def _classify_states(
             for i in range(group_idx.shape[0]):
                 q[group_idx[i]] = qs[b0, i]
             fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
-            for b in range(B):
-                L = body_link[b]
-                for i in range(3):
-                    for j in range(4):
-                        TBb[0, b, i, j] = (
-                            T[L, i, j]
-                            if plain[b]
-                            else T[L, i, 0] * body_T[b, 0, j]
-                            + T[L, i, 1] * body_T[b, 1, j]
-                            + T[L, i, 2] * body_T[b, 2, j]
-                            + (T[L, i, 3] if j == 3 else 0.0)
-                        )
+            place_bodies(T, body_link, body_T, plain, TBb[0])
         else:
             _place_block(qs, b0, n, model, plain, TBb, Ts, column, work)
         for k in range(n):
@@ -1659,23 +1654,9 @@ def _classify_states(
                 q[group_idx[i]] = qs[s, i]
             row = flags[s] if record_flags else scratch_row
             out[s] = _classify_state(
-                q,
-                TBb[k],
-                model,
-                W,
-                stamp,
-                Wi,
-                stamp_i,
-                seen,
-                pairs,
-                epoch + s,
-                stack,
-                stack2,
-                stack3,
-                row,
-                status,
-                mark,
-            )
+                q, TBb[k], model, W, stamp, Wi, stamp_i, seen, pairs, epoch + s, stack, stack2,
+                stack3, row, status, mark,
+            )  # fmt: skip
             if stop_early and out[s] != FREE:
                 return
         b0 += n

@@ -49,6 +49,7 @@ from robocell.scene._kernels import (
     _world_clear,
     gjk_intersect,
     gjk_within,
+    place_bodies,
     triangle_box_overlap,
 )
 
@@ -462,23 +463,9 @@ def _clear_states(
         for i in range(group_idx.shape[0]):
             q[group_idx[i]] = qs[s, i]
         fk_into(q, joints, root, parent, child, origin, jtype, axis, var, mult, offset, T)
+        place_bodies(T, body_link, body_T, plain, TB)
         for b in range(B):
-            L = T[body_link[b]]
             clear[b] = -1
-            if plain[b]:
-                for i in range(3):
-                    for j in range(4):
-                        TB[b, i, j] = L[i, j]
-            else:
-                for i in range(3):
-                    for j in range(4):
-                        TB[b, i, j] = (
-                            L[i, 0] * body_T[b, 0, j]
-                            + L[i, 1] * body_T[b, 1, j]
-                            + L[i, 2] * body_T[b, 2, j]
-                            + (L[i, 3] if j == 3 else 0.0)
-                        )
-        for b in range(B):
             pad[b] = -1.0  # not yet known (_pad_of)
         free = True
         near = False  # a self pair closer than self_tolerance, not proven apart
