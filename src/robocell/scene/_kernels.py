@@ -33,8 +33,8 @@ UNCHECKED = 3  # a state a scan stopped before
 # scratch's other slots (numba's thread count, read in compiled code, would keep it from
 # numba's cache)
 SEARCH_SLOTS = 2
-# states whose bodies are placed at once (fk_block): 16 placed a Panda's state in 40 ns, 8 in
-# 58, 32 in 35 (session 28, measured); a block's link and body poses then take 37 kB
+# states whose bodies are placed at once (fk_block): 16 placed a Panda's state in 39 ns, 8 in
+# 52, 32 in 35 (session 28, measured); a block's link and body poses then take 37 kB
 BLOCK = 16
 OBS_BOX, OBS_CYLINDER, OBS_SPHERE = 0, 1, 2
 # a triangle in the exact test: its "pose" (3×4) holds the vertices as columns 0–2 and the
@@ -1498,8 +1498,7 @@ def _range_buffers(model):  # type: ignore[no-untyped-def]
     :func:`_body_clear`, which bodies sit at their link's frame (``body_T`` the identity:
     their pose is the link's, copied), and for :func:`fk_block` a block's link poses (L, 12,
     BLOCK), each variable's column in the states (-1 outside the group), and work rows (15,
-    BLOCK): fk_block's three, then a block's pose of one body (12 rows); and the link poses of
-    one state placed alone (L, 4, 4)."""
+    BLOCK): fk_block's three, then a block's pose of one body (12 rows)."""
     group_idx, q_base, _, root, parent, child = model[:6]
     body_T = model[13]
     plain = np.ones(body_T.shape[0], np.bool_)
@@ -1526,7 +1525,6 @@ def _range_buffers(model):  # type: ignore[no-untyped-def]
         np.zeros((n_links, 12, BLOCK)),
         column,
         np.zeros((15, BLOCK)),
-        np.zeros((n_links, 4, 4)),
     )
 
 
@@ -1538,7 +1536,7 @@ def _range_buffers(model):  # type: ignore[no-untyped-def]
 # would otherwise inherit the option.
 @njit(cache=True, **NRT_OFF)
 def _classify_range(
-    s0, s1, qs, model, W, stamp, Wi, stamp_i, seen, pairs, epoch, flags, record_flags,
+    s0, s1, qs, model, W, stamp, Wi, stamp_i, seen, pairs, T, epoch, flags, record_flags,
     scratch_row, out, buffers, stop_early,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Classify states s0..s1-1: :func:`_classify_states`, compiled on its own (for the
@@ -1550,7 +1548,7 @@ def _classify_range(
     run's 7 minutes of compiling (measured). Hence the ``np.int64(0)`` and ``np.bool_(False)``
     in the callers, and no defaults in them either."""
     _classify_states(
-        s0, s1, qs, model, W, stamp, Wi, stamp_i, seen, pairs, epoch, flags, record_flags,
+        s0, s1, qs, model, W, stamp, Wi, stamp_i, seen, pairs, T, epoch, flags, record_flags,
         scratch_row, out, buffers, stop_early,
     )  # fmt: skip
 
@@ -1618,24 +1616,25 @@ def _place_block(qs, s0, n, model, plain, TBb, Ts, column, work):  # type: ignor
 
 @njit(cache=True, inline="always")
 def _classify_states(
-    s0, s1, qs, model, W, stamp, Wi, stamp_i, seen, pairs, epoch, flags, record_flags,
+    s0, s1, qs, model, W, stamp, Wi, stamp_i, seen, pairs, T, epoch, flags, record_flags,
     scratch_row, out, buffers, stop_early=False,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
-    """Classify states s0..s1-1 with one thread's scratch (W, stamp, Wi, stamp_i, seen, pairs).
+    """Classify states s0..s1-1 with one thread's scratch (W, stamp, Wi, stamp_i, seen, pairs, T;
+    T holds the link poses of a state placed alone).
     Stamps hold ``epoch + s`` for the state that last placed a sphere, so the scratch is
     reused across calls without being reset. ``buffers``: :func:`_range_buffers`.
     ``stop_early``: return after the first state that is not FREE (the later ones keep their
     UNCHECKED mark).
 
     The bodies are placed a block of states at a time (:func:`fk_block`, on SIMD lanes): a
-    Panda's final-check states took 630 instead of 910 ns each, a UR5's 790 instead of 980
+    Panda's final-check states took 640 instead of 935 ns each, a UR5's 770 instead of 1067
     (session 28, measured). A scan that stops early places its first state alone (a block of
     8 took 420 ns for a Panda, one state 265), then blocks of 8, then of BLOCK."""
     group_idx, q_base, joints, root, parent, child, origin, jtype, axis, var, mult, offset = model[
         :12
     ]
     body_link, body_T = model[12], model[13]
-    TBb, q, stack, stack2, stack3, status, mark, plain, Ts, column, work, T = buffers
+    TBb, q, stack, stack2, stack3, status, mark, plain, Ts, column, work = buffers
     # a scan places its first state alone: most edges a search rejects collide there
     size = 1 if stop_early else BLOCK
     b0 = s0
@@ -1685,14 +1684,14 @@ def scanner(model, scratch, slot, n):  # type: ignore[no-untyped-def]
 def scan(qs, n, model, sc, epoch):  # type: ignore[no-untyped-def]
     """How many leading states of ``qs[:n]`` are FREE, classified in order on scanner ``sc``
     (:func:`scanner`) until the first that is not, with stamps from ``epoch``."""
-    W, stamp, Wi, stamp_i, seen, pairs, _, flags, row, out, buffers = sc
+    W, stamp, Wi, stamp_i, seen, pairs, T, flags, row, out, buffers = sc
     size = out.shape[0]
     for c0 in range(0, n, size):
         c1 = min(n, c0 + size)
         # inlined: a call passing the model's 62 arrays cost 1.4 µs, more than the state
         _classify_states(
-            0, c1 - c0, qs[c0:c1], model, W, stamp, Wi, stamp_i, seen, pairs, epoch + c0, flags,
-            False, row, out, buffers, True,
+            0, c1 - c0, qs[c0:c1], model, W, stamp, Wi, stamp_i, seen, pairs, T, epoch + c0,
+            flags, False, row, out, buffers, True,
         )  # fmt: skip
         for k in range(c1 - c0):
             if out[k] != FREE:
@@ -1706,7 +1705,7 @@ def classify_serial(qs, model, scratch, epoch, record_flags, stop_early, slot): 
     function costs several microseconds more per call even when it runs serially (measured).
     ``stop_early``: stop at the first state that is not FREE; later states stay UNCHECKED.
     ``slot``: the scratch's thread slot to use."""
-    W, stamp, Wi, stamp_i, seen, pairs, _ = _slot(scratch, slot)
+    W, stamp, Wi, stamp_i, seen, pairs, T = _slot(scratch, slot)
     N = qs.shape[0]
     out = np.full(N, UNCHECKED, np.int8)
     P = model[25].shape[0] + model[26].shape[0]
@@ -1723,6 +1722,7 @@ def classify_serial(qs, model, scratch, epoch, record_flags, stop_early, slot): 
         stamp_i,
         seen,
         pairs,
+        T,
         epoch,
         flags,
         record_flags,
@@ -1751,7 +1751,7 @@ def classify(qs, model, scratch, epoch, record_flags, chunk):  # type: ignore[no
     (session 27, the final checks' states of each problem's plan, both alternating, each
     after an ``ompl`` plan and a native one, medians of 150 checks): Panda table_under_pick
     332 against 352 µs, table_pick 233 against 258; UR5 table_under_pick 403 both."""
-    W, stamp, Wi, stamp_i, seen, pairs, _ = scratch
+    W, stamp, Wi, stamp_i, seen, pairs, T = scratch
     N = qs.shape[0]
     out = np.empty(N, np.int8)
     P = model[25].shape[0] + model[26].shape[0]
@@ -1774,6 +1774,7 @@ def classify(qs, model, scratch, epoch, record_flags, chunk):  # type: ignore[no
                 stamp_i[t],
                 seen[t],
                 pairs[t],
+                T[t],
                 epoch,
                 flags,
                 record_flags,

@@ -451,7 +451,7 @@ def _clear_states(
     world_frame, world_dims, world_values = model[-3], model[-2], model[-1]
     world_group_start, world_group_union, world_group_count, world_run_end = model[-7:-3]
     W, stamp, _, _, seen, _, T = _slot(scratch, 0)
-    blocks, q, stack, stack2, stack3, _, _, plain, _, _, _, _ = buffers
+    blocks, q, stack, stack2, stack3, _, _, plain, _, _, _ = buffers
     TB = blocks[0]  # one state at a time here
     clear, pad, contrib, big, tri, Tp, moving, R3, t3, tri_f = work
     B = body_link.shape[0]
