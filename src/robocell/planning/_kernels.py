@@ -140,7 +140,7 @@ def _nearest(Q, n, q):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
-def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats, whole):  # type: ignore[no-untyped-def]
+def _extend(Q, P, n, i, q_to, step, resolution, sc, epoch, buf, stats, whole):  # type: ignore[no-untyped-def]
     """Grow the tree (Q, P, n nodes) from node i towards q_to by at most ``step`` (L∞): the
     new node's index, or −1 if not even the first state is free. ``whole``: only if the whole
     edge is free (its states checked coarse to fine, so that a blocked edge is rejected after
@@ -157,7 +157,7 @@ def _extend(Q, P, n, i, q_to, step, resolution, model, sc, epoch, buf, stats, wh
         target[j] = Q[i, j] + f * (q_to[j] - Q[i, j])
     # one scan call either way (the search's code compiles in a first run's critical path)
     qs, m = _edge_states(Q[i], target, resolution, buf, whole)
-    k = SK.scan(qs, m, model, sc, epoch + stats[2])
+    k = SK.scan(qs, m, sc, epoch + stats[2])
     stats[2] += m
     stats[3] += min(k + 1, m)
     if whole:
@@ -201,7 +201,7 @@ def rrt_connect(
     for g in range(goals.shape[0]):
         d[g] = np.sqrt(np.sum((goals[g] - start) ** 2))
     for g in np.argsort(d)[: 4 if me == 0 else 0]:
-        if _edge_free(start, goals[g], resolution, model, sc, epoch, buf, stats):
+        if _edge_free(start, goals[g], resolution, sc, epoch, buf, stats):
             path = np.empty((2, dof))
             path[0] = start
             path[1] = goals[g]
@@ -237,7 +237,7 @@ def rrt_connect(
         i = _nearest(Qa, na, q_rand)
         whole = stats[0] <= whole_for
         i_new = _extend(
-            Qa, Pa, na, i, q_rand, step, resolution, model, sc, epoch, buf, stats, whole
+            Qa, Pa, na, i, q_rand, step, resolution, sc, epoch, buf, stats, whole
         )  # fmt: skip
         if i_new >= 0:
             na += 1
@@ -246,7 +246,7 @@ def rrt_connect(
             j = _nearest(Qb, nb, q_new)
             while nb < cap - 1:
                 j2 = _extend(
-                    Qb, Pb, nb, j, q_new, step, resolution, model, sc, epoch, buf, stats, whole
+                    Qb, Pb, nb, j, q_new, step, resolution, sc, epoch, buf, stats, whole
                 )  # fmt: skip
                 if j2 < 0:
                     break
@@ -366,20 +366,20 @@ def _search_one(
 
 
 @njit(cache=True, inline="always")
-def _edge_free(a, b, resolution, model, sc, epoch, buf, stats):  # type: ignore[no-untyped-def]
+def _edge_free(a, b, resolution, sc, epoch, buf, stats):  # type: ignore[no-untyped-def]
     """Whether the segment a → b (b included, a assumed free) is free, its states at most
     ``resolution`` apart per joint checked coarse to fine (:func:`_edge_states`), stopping
     at the first that is not FREE. Counts epochs and states in ``stats`` (2: epochs used,
     3: states checked). ``sc``: SK.scanner."""
     qs, n = _edge_states(a, b, resolution, buf, True)
-    k = SK.scan(qs, n, model, sc, epoch + stats[2])
+    k = SK.scan(qs, n, sc, epoch + stats[2])
     stats[2] += n
     stats[3] += min(k + 1, n)
     return k == n
 
 
 @njit(cache=True)
-def _skip_waypoints(path, resolution, model, sc, epoch, buf, stats, deadline):  # type: ignore[no-untyped-def]
+def _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline):  # type: ignore[no-untyped-def]
     """From each kept waypoint, jump to the farthest one reachable in a straight line."""
     n = path.shape[0]
     keep = np.empty(n, np.int64)
@@ -392,7 +392,7 @@ def _skip_waypoints(path, resolution, model, sc, epoch, buf, stats, deadline):  
             if _clock() > deadline:
                 j = i + 1
                 break
-            if _edge_free(path[i], path[j], resolution, model, sc, epoch, buf, stats):
+            if _edge_free(path[i], path[j], resolution, sc, epoch, buf, stats):
                 break
             j -= 1
         keep[m] = j
@@ -416,7 +416,7 @@ def shortcut(
     stats = np.zeros(4, np.int64)
     buf = np.empty((4096, dof))
     sc = SK.scanner(model, scratch, slot, buf.shape[0])
-    path = _skip_waypoints(path, resolution, model, sc, epoch, buf, stats, deadline)
+    path = _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline)
     stop_at = stats[3] + budget
     fails = 0
     tries = 0
@@ -448,7 +448,7 @@ def shortcut(
         if np.sqrt(np.sum((p2 - p1) ** 2)) > (s2 - s1) - max(1e-6, min_gain * (s2 - s1)):
             fails += 1
             continue
-        if _edge_free(p1, p2, resolution, model, sc, epoch, buf, stats):
+        if _edge_free(p1, p2, resolution, sc, epoch, buf, stats):
             new = np.empty((i1 + 1 + 2 + K - i2 - 1, dof))
             new[: i1 + 1] = path[: i1 + 1]
             new[i1 + 1] = p1
@@ -460,7 +460,7 @@ def shortcut(
         else:
             fails += 1
     if changed:  # else the first pass's result stands (a second would redo its checks)
-        path = _skip_waypoints(path, resolution, model, sc, epoch, buf, stats, deadline)
+        path = _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline)
     # repeated waypoints dropped (at least the two ends)
     keep = np.ones(path.shape[0], np.bool_)
     for s in range(1, path.shape[0]):
@@ -490,9 +490,9 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
             x = near[j] + (2.0 * np.random.random() - 1.0) * radius  # noqa: NPY002
             w[j] = min(max(x, lower[j]), upper[j])
         if (
-            _edge_free(w, w, resolution, model, sc, epoch, buf, stats)
-            and _edge_free(a, w, resolution, model, sc, epoch, buf, stats)
-            and _edge_free(w, b, resolution, model, sc, epoch, buf, stats)
+            _edge_free(w, w, resolution, sc, epoch, buf, stats)
+            and _edge_free(a, w, resolution, sc, epoch, buf, stats)
+            and _edge_free(w, b, resolution, sc, epoch, buf, stats)
         ):
             return True, w, stats
     return False, w, stats

@@ -21,7 +21,10 @@ from typing import Any
 import numba
 import numpy as np
 from numba import njit, prange, types
+from numba.core import cgutils
+from numba.core.runtime.nrtdynmod import _meminfo_struct_type
 from numba.experimental import structref
+from numba.extending import intrinsic
 from numpy.typing import NDArray
 
 from robocell.kinematics._kernels import block_lanes, fk_block, fk_into
@@ -1669,22 +1672,65 @@ def _slot(scratch, slot):  # type: ignore[no-untyped-def]
     return W[slot], stamp[slot], Wi[slot], stamp_i[slot], seen[slot], pairs[slot], T[slot]
 
 
+# What a scan works with (the model and a scratch slot's arrays, 88 arrays) as one pointer:
+# passed as tuples, every call of :func:`scan` pushed 658 words onto the stack and released
+# 100 references after it, 146 ns of a call with warm caches and 5–6 kB of code at each call
+# site (8 sites, 56 kB of a plan's search and shortcut code, fetched anew in a plan that
+# follows other work).
+@structref.register
+class ScannerType(types.StructRef):  # type: ignore[misc]
+    def preprocess_fields(self, fields):  # type: ignore[no-untyped-def]
+        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+
+class Scanner(structref.StructRefProxy):  # type: ignore[misc]
+    """(model, work) of :func:`scan`: see :func:`scanner`."""
+
+
+structref.define_proxy(Scanner, ScannerType, ["model", "work"])
+
+
+@intrinsic
+def _scanner_fields(typingctx, sc):  # type: ignore[no-untyped-def]
+    """(model, work) of a :class:`Scanner`, borrowed, in code compiled without numba's
+    reference counting (:func:`scan`), where ``sc.model`` cannot compile: it reads the data
+    pointer through the runtime. The same read: the data pointer is the fourth field of the
+    MemInfo (numba's own ``NRT_MemInfo_data_fast``)."""
+    names = ("model", "work")
+    sig = types.Tuple(tuple(sc.field_dict[n] for n in names))(sc)
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        meminfo = cgutils.create_struct_proxy(sc)(context, builder, value=args[0]).meminfo
+        info = builder.bitcast(meminfo, _meminfo_struct_type.as_pointer())
+        data = builder.load(cgutils.gep(builder, info, 0, 3))
+        valtype = sc.get_data_type()
+        alloc = context.data_model_manager[valtype].get_value_type()
+        fields = cgutils.create_struct_proxy(valtype)(
+            context, builder, ref=builder.bitcast(data, alloc.as_pointer())
+        )
+        values = [getattr(fields, n) for n in names]
+        return context.make_tuple(builder, signature.return_type, values)
+
+    return sig, codegen
+
+
 @njit(cache=True)
 def scanner(model, scratch, slot, n):  # type: ignore[no-untyped-def]
-    """What :func:`scan` works with on scratch slot ``slot``, up to ``n`` states at a time:
-    the slot's arrays, empty flags, and the results' and :func:`_range_buffers`' arrays.
-    Built once per search: allocating them for each edge cost 1.5–2 µs of the 3 µs an edge of
-    one state took (measured)."""
+    """What :func:`scan` works with on scratch slot ``slot``, up to ``n`` states at a time
+    (a :class:`Scanner`): the model, and the slot's arrays, empty flags, and the results' and
+    :func:`_range_buffers`' arrays. Built once per search: allocating them for each edge cost
+    1.5–2 µs of the 3 µs an edge of one state took (measured)."""
     P = model[25].shape[0] + model[26].shape[0]
     work = (np.zeros((0, P), np.bool_), np.zeros(P, np.bool_), np.empty(n, np.int8))
-    return _slot(scratch, slot) + work + (_range_buffers(model),)
+    return Scanner(model, _slot(scratch, slot) + work + (_range_buffers(model),))
 
 
 @njit(cache=True, **NRT_OFF)
-def scan(qs, n, model, sc, epoch):  # type: ignore[no-untyped-def]
+def scan(qs, n, sc, epoch):  # type: ignore[no-untyped-def]
     """How many leading states of ``qs[:n]`` are FREE, classified in order on scanner ``sc``
     (:func:`scanner`) until the first that is not, with stamps from ``epoch``."""
-    W, stamp, Wi, stamp_i, seen, pairs, T, flags, row, out, buffers = sc
+    model, work = _scanner_fields(sc)
+    W, stamp, Wi, stamp_i, seen, pairs, T, flags, row, out, buffers = work
     size = out.shape[0]
     for c0 in range(0, n, size):
         c1 = min(n, c0 + size)
