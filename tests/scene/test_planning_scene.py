@@ -265,6 +265,48 @@ def test_the_threads_chunks_answer_as_the_calling_thread_does(irb120):
             assert got.tolist() == expected, (stopper, k)
 
 
+def test_an_edge_scan_counts_the_free_states_before_the_first_that_is_not(irb120):
+    """scan (a search's edge check: the model and the slot's work arrays as one Scanner,
+    read without reference counting) returns how many leading states are FREE, as the
+    classifier says, for edges longer than its buffer (chunks of 8) and its first ``n`` states
+    alone; the scratch slot's stamps carry over from call to call without mixing states."""
+    from numba import njit
+
+    from robocell.scene import _kernels as K
+    from robocell.scene.checker import next_epoch
+    from tests.conftest import past_a_mesh
+
+    @njit
+    def scan_each(batches, n, model, scratch, epoch):  # type: ignore[no-untyped-def]
+        sc = K.scanner(model, scratch, 0, 8)
+        out = np.empty(len(batches), np.int64)
+        for i in range(len(batches)):
+            out[i] = K.scan(batches[i], n[i], sc, epoch + 100 * i)
+        return out
+
+    arm = irb120.group("arm")
+    checker = past_a_mesh(irb120).checker(arm)
+    model, scratch = checker.kernel_inputs()
+    qs = arm.random(np.random.default_rng(7), 3000)
+    cls, _ = K.classify_serial_in(qs, checker.compiled_inputs, next_epoch(3000), True, False, 0)
+    free = qs[cls == K.FREE][:40]
+    batches, n, expected = [], [], []
+    for stopper in (K.HIT, K.UNSURE):
+        q_stop = qs[cls == stopper][:1]
+        for k in (0, 1, 7, 8, 9, 20, 33):
+            batch = np.ascontiguousarray(np.vstack([free[:k], q_stop, free[k:]]))
+            batches.append(batch)
+            n.append(len(batch))
+            expected.append(k)
+            batches.append(batch)  # its first k states only: all free
+            n.append(k)
+            expected.append(k)
+    from numba.typed import List
+
+    got = scan_each(List(batches), np.array(n), model, scratch, next_epoch(100 * len(n)))
+    assert got.tolist() == expected
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_fast_check_never_calls_a_colliding_state_free(scene, irb120, seed):
     scene.add_sphere("ball", Pose((0.3, -0.3, 0.4)), 0.08)
