@@ -307,6 +307,17 @@ def test_an_edge_scan_counts_the_free_states_before_the_first_that_is_not(irb120
     assert got.tolist() == expected
 
 
+def test_the_scanners_meminfo_layout_is_numbas():
+    """_scanner_fields reads a Scanner's data pointer from numba's MemInfo as robocell spells
+    it out (_MEMINFO): the same struct as numba's runtime's own description, whose fourth
+    field (the data pointer) NRT_MemInfo_data_fast reads."""
+    from numba.core.runtime import nrtdynmod
+
+    from robocell.scene import _kernels as K
+
+    assert str(K._MEMINFO) == str(nrtdynmod._meminfo_struct_type)
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_fast_check_never_calls_a_colliding_state_free(scene, irb120, seed):
     scene.add_sphere("ball", Pose((0.3, -0.3, 0.4)), 0.08)

@@ -20,9 +20,9 @@ from typing import Any
 
 import numba
 import numpy as np
+from llvmlite import ir
 from numba import njit, prange, types
 from numba.core import cgutils
-from numba.core.runtime.nrtdynmod import _meminfo_struct_type
 from numba.experimental import structref
 from numba.extending import intrinsic
 from numpy.typing import NDArray
@@ -1690,18 +1690,27 @@ class Scanner(structref.StructRefProxy):  # type: ignore[misc]
 structref.define_proxy(Scanner, ScannerType, ["model", "work"])
 
 
+# numba's MemInfo, as its runtime lays it out (nrt.cpp; nrtdynmod's private
+# _meminfo_struct_type, which a test compares with this): size_t refct, void *dtor,
+# void *dtor_info, void *data, size_t size. _scanner_fields reads its data pointer.
+_MEMINFO = ir.LiteralStructType(
+    [ir.IntType(64), ir.IntType(8).as_pointer(), ir.IntType(8).as_pointer(),
+     ir.IntType(8).as_pointer(), ir.IntType(64)]
+)  # fmt: skip
+
+
 @intrinsic
 def _scanner_fields(typingctx, sc):  # type: ignore[no-untyped-def]
     """(model, work) of a :class:`Scanner`, borrowed, in code compiled without numba's
     reference counting (:func:`scan`), where ``sc.model`` cannot compile: it reads the data
     pointer through the runtime. The same read: the data pointer is the fourth field of the
-    MemInfo (numba's own ``NRT_MemInfo_data_fast``)."""
+    MemInfo (:data:`_MEMINFO`), as numba's own ``NRT_MemInfo_data_fast`` reads it."""
     names = ("model", "work")
     sig = types.Tuple(tuple(sc.field_dict[n] for n in names))(sc)
 
     def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
         meminfo = cgutils.create_struct_proxy(sc)(context, builder, value=args[0]).meminfo
-        info = builder.bitcast(meminfo, _meminfo_struct_type.as_pointer())
+        info = builder.bitcast(meminfo, _MEMINFO.as_pointer())
         data = builder.load(cgutils.gep(builder, info, 0, 3))
         valtype = sc.get_data_type()
         alloc = context.data_model_manager[valtype].get_value_type()
