@@ -1672,15 +1672,22 @@ def _slot(scratch, slot):  # type: ignore[no-untyped-def]
     return W[slot], stamp[slot], Wi[slot], stamp_i[slot], seen[slot], pairs[slot], T[slot]
 
 
+class _TuplesRef(types.StructRef):  # type: ignore[misc]
+    """A StructRef of tuples of arrays (:class:`Scanner`, :class:`KernelInputs`), its fields
+    typed as their values are."""
+
+    def preprocess_fields(self, fields):  # type: ignore[no-untyped-def]
+        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+
 # What a scan works with (the model and a scratch slot's arrays, 88 arrays) as one pointer:
 # passed as tuples, every call of :func:`scan` pushed 658 words onto the stack and released
 # 100 references after it, 146 ns of a call with warm caches and 5–6 kB of code at each call
 # site (8 sites, 56 kB of a plan's search and shortcut code, fetched anew in a plan that
 # follows other work).
 @structref.register
-class ScannerType(types.StructRef):  # type: ignore[misc]
-    def preprocess_fields(self, fields):  # type: ignore[no-untyped-def]
-        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+class ScannerType(_TuplesRef):  # type: ignore[misc]
+    pass
 
 
 class Scanner(structref.StructRefProxy):  # type: ignore[misc]
@@ -1846,9 +1853,8 @@ def classify(qs, model, scratch, epoch, record_flags, chunk):  # type: ignore[no
 # plan's first calls); a StructRef is one pointer (0.6 and 9 µs, measured). Compiled code
 # takes the tuples out (``inputs.model``) and calls on as before.
 @structref.register
-class KernelInputsType(types.StructRef):  # type: ignore[misc]
-    def preprocess_fields(self, fields):  # type: ignore[no-untyped-def]
-        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+class KernelInputsType(_TuplesRef):  # type: ignore[misc]
+    pass
 
 
 class KernelInputs(structref.StructRefProxy):  # type: ignore[misc]
