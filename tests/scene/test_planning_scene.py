@@ -271,6 +271,7 @@ def test_an_edge_scan_counts_the_free_states_before_the_first_that_is_not(irb120
     classifier says, for edges longer than its buffer (chunks of 8) and its first ``n`` states
     alone; the scratch slot's stamps carry over from call to call without mixing states."""
     from numba import njit
+    from numba.typed import List
 
     from robocell.scene import _kernels as K
     from robocell.scene.checker import next_epoch
@@ -301,8 +302,6 @@ def test_an_edge_scan_counts_the_free_states_before_the_first_that_is_not(irb120
             batches.append(batch)  # its first k states only: all free
             n.append(k)
             expected.append(k)
-    from numba.typed import List
-
     got = scan_each(List(batches), np.array(n), model, scratch, next_epoch(100 * len(n)))
     assert got.tolist() == expected
 
