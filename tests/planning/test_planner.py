@@ -250,6 +250,40 @@ def test_fix_start_nudges_out_of_collision(walled):
     assert np.abs(plan.path[1] - q).max() < 0.2
 
 
+def test_the_search_checks_the_start_and_goal_and_the_planner_settles_them(walled, irb120):
+    """The compiled search's call classifies the start and the goal before it searches; where
+    one is not FREE there, the planner checks it exactly as it would have first: a goal in
+    collision raises naming the pair; a start or goal the kernel leaves unsure (near a mesh)
+    but free is planned from or to as it is, the same plan each time; and with no time for a
+    search at all, a start in collision still raises."""
+    from robocell.scene import _kernels as K
+    from tests.conftest import past_a_mesh
+
+    arm = walled.robot.group("arm")
+    inside = np.array([0, 0.6, 0.3, 0, 0, 0])
+    assert walled.checker(arm).check(inside)[0]
+    with pytest.raises(PlanningError, match="joint goal is in collision: .*wall"):
+        Planner(walled).plan(MotionPlanRequest("arm", JointGoal(inside), start=START))
+    with pytest.raises(PlanningError, match="start state in collision: .*wall"):
+        Planner(walled).plan(
+            MotionPlanRequest("arm", JointGoal(GOAL), start=inside, planning_time=1e-12)
+        )
+    scene = past_a_mesh(irb120)
+    checker = scene.checker(arm)
+    qs = arm.random(np.random.default_rng(5), 4000)
+    cls, _ = checker.classify(qs)
+    unsure = qs[cls == K.UNSURE]
+    free = unsure[~checker.check_exact(unsure)][:2]
+    assert len(free) == 2
+    planner = Planner(scene)
+    plans = [
+        planner.plan(MotionPlanRequest("arm", JointGoal(free[1]), start=free[0], seed=3))
+        for _ in range(2)
+    ]
+    assert plans[0].success and np.array_equal(plans[0].path[[0, -1]], free)
+    assert np.array_equal(plans[0].path, plans[1].path)
+
+
 def test_attempts_keep_the_shortest(walled):
     one = Planner(walled).plan(MotionPlanRequest("arm", JointGoal(GOAL), start=START, seed=1))
     many = Planner(walled).plan(

@@ -24,6 +24,7 @@ from robocell.scene import _kernels as SK
 from robocell.trajectory import _kernels as TK
 
 FOUND, NOT_FOUND, FULL, STOPPED = 0, 1, 2, 3
+BLOCKED = 4  # plan_in: the start or a goal is not FREE (the caller settles why)
 STATE_WORK = 100  # a state's kinematics and pair loop, in sphere centres placed (fitted)
 
 
@@ -504,7 +505,7 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
 def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
     first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_seed, shortcut_deadline,
-    shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain,
+    shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain, check_ends,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A plan's search in one call: the searches of
     :func:`robocell.planning.rrt.rrt_connect_compiled`, then (``shortcut_tries`` > 0) the
@@ -524,17 +525,30 @@ def plan_in(
     the first search's slot. The shortcuts' stamps start at ``epoch + n·2**40`` (n searches),
     and the call needs no GIL.
 
+    With ``check_ends``, the start and the goals are classified first, on the search's own
+    code (:func:`SK.scan`, stamps from ``epoch + (n + 1)·2**40``): if one is not FREE, the
+    call returns at once with status BLOCKED, and the caller checks them itself (coal settles
+    the unsure ones; the error names the colliding pair). Their checks in Python, before the
+    call, took 36–54 µs of a plan (two kernel calls; 4–6 µs now, session 30). Through the
+    checker's batch classifier instead of ``scan`` (session 16), the first run's second
+    process (planning.precompile) took 190 s instead of 144 to compile this kernel.
+
     Returns the path (the winner's, or search 0's if none found one), the search's status
     and stats (:func:`rrt_connect`), and the states the shortcut checked. The final check is
     a call of its own (:func:`validate_path`): with it in this call too (session 16) plans
     were 1–7 % faster, but this kernel took 220 s to compile instead of about 130, and the
     first run, which compiles it in a second process (planning.precompile), 250 s instead
-    of 135 (measured). Classifying the start and the goals here too (30–40 µs less Python a
-    plan) made that second process take 190 s instead of 144, most of it system time, for a
-    cause not found: the caller checks them."""
+    of 135 (measured)."""
     model, scratch = inputs.model, inputs.scratch
     dof = start.shape[0]
     n = seeds.shape[0]
+    if check_ends:
+        ends = np.empty((1 + goals.shape[0], dof))
+        ends[0] = start
+        ends[1:] = goals
+        sc = SK.scanner(model, scratch, first_slot, ends.shape[0])
+        if SK.scan(ends, ends.shape[0], sc, epoch + ((n + 1) << 40)) < ends.shape[0]:
+            return np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0
     box_lo = np.empty(dof)
     box_hi = np.empty(dof)
     for j in range(dof):

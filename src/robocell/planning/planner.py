@@ -167,19 +167,22 @@ class Planner:
         group = self.scene.robot.group(request.group)
         _check_request(request)
         checker = self.scene.checker(group)
-        if cfg.compiled and request.planner_id.strip().lower() in NATIVE_PLANNERS:
+        planner_name = request.planner_id.strip()
+        native = planner_name.lower() in NATIVE_PLANNERS
+        if cfg.compiled and native:
             warm_up(checker)
         threads = cfg.threads if cfg.threads is not None else not threads_rested()
         chunk = FINAL_CHUNK if threads else REST_CHUNK
-        start, prefix = self._start(group, request, checker)
-        goals = self.goal_configurations(group, request.goal, start, checker)
+        # the start's and a joint goal's collision checks left to the compiled search's call
+        # (check_ends), on its own code: checked here only if it finds one of them not FREE
+        defer = cfg.compiled and native and not checker.static_collisions
+        start, prefix = self._start(group, request, checker, collisions=not defer)
+        goals = self.goal_configurations(group, request.goal, start, checker, collisions=not defer)
         # the search's budget starts once the checker exists and the goals are known: building
         # a scene's sphere model and compiling kernels happen once, not per plan, and IK has
         # its own time budget
         deadline = time.perf_counter() + request.planning_time
         rng = Seeds(request.seed)
-        planner_name = request.planner_id.strip()
-        native = planner_name.lower() in NATIVE_PLANNERS
         resolution = cfg.resolution
         best: NDArray[np.float64] | None = None
         best_dev = cfg.max_deviation
@@ -193,8 +196,20 @@ class Planner:
             tries += 1
             edges = Edges(checker, resolution)
             path, shortened = self._solve(
-                planner_name, edges, start, goals, group, rng, deadline, threads=threads
-            )
+                planner_name, edges, start, goals, group, rng, deadline, threads=threads,
+                check_ends=defer,
+            )  # fmt: skip
+            if edges.stats.blocked_ends:
+                # the start or a goal is not FREE in the kernel: checked exactly, as without
+                # deferring (the error names the colliding pair; fix_start nudges the start),
+                # then the plan as if they had been checked first
+                start, prefix = self._start(group, request, checker)
+                goals = self.goal_configurations(group, request.goal, start, checker)
+                stats["goals"] = float(len(goals))
+                defer = False
+                rng = Seeds(request.seed)
+                tries -= 1
+                continue
             stats["checked_states"] = stats.get("checked_states", 0) + edges.stats.states
             if path is None:
                 reason = (
@@ -243,6 +258,10 @@ class Planner:
             if best is None or _length(path) < _length(best):
                 best, best_dev = path, dev
         stats["tries"] = tries
+        if best is None and defer:
+            # the start and the goals, if no search checked them (no time left for one)
+            self._start(group, request, checker)
+            self.goal_configurations(group, request.goal, start, checker)
         if best is None:
             return MotionPlan(
                 False,
@@ -277,15 +296,17 @@ class Planner:
         goal: Goal,
         seed: NDArray[np.float64],
         checker: CollisionChecker,
+        collisions: bool = True,
     ) -> NDArray[np.float64]:
         """(G, dof) collision-free configurations that satisfy ``goal``, nearest ``seed`` first.
-        Raises :class:`PlanningError` when there are none, saying why."""
+        Raises :class:`PlanningError` when there are none, saying why. ``collisions=False``:
+        a joint goal is not checked for collisions (the caller does it)."""
         if isinstance(goal, JointGoal):
             q = group.as_joint_vector(goal.positions, "joint goal")
             bad = group.limit_violations(q)
             if bad:
                 raise PlanningError(f"joint goal outside the limits: {'; '.join(bad)}")
-            if checker.collides(q):
+            if collisions and checker.collides(q):
                 raise PlanningError(f"joint goal is in collision: {_pairs(checker, q)}")
             return q[None, :]
         robot = self.scene.robot
@@ -360,8 +381,10 @@ class Planner:
         group: JointGroup,
         request: MotionPlanRequest,
         checker: CollisionChecker,
+        collisions: bool = True,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
-        """The start configuration, and the original start when it had to be nudged."""
+        """The start configuration, and the original start when it had to be nudged;
+        ``collisions=False``: not checked for collisions (the caller does it)."""
         if request.start is None:
             q = self.scene.state.group_positions(group)
         else:
@@ -375,7 +398,7 @@ class Planner:
                     "(fix_start=True moves it inside)"
                 )
             q = np.clip(q, group.lower, group.upper)
-        if checker.collides(q):
+        if collisions and checker.collides(q):
             if not request.fix_start:
                 raise PlanningError(
                     f"start state in collision: {_pairs(checker, q)} "
@@ -416,12 +439,14 @@ class Planner:
         deadline: float,
         shorten: bool = True,
         threads: bool = True,
+        check_ends: bool = False,
     ) -> tuple[NDArray[np.float64] | None, bool]:
         """A path from ``start`` to one of ``goals`` (None if none was found in time), and
         whether it is shortcut already: by the compiled search, in the same kernel call, if
         ``shorten`` and the config's ``shortcut`` (else the caller shortcuts it). ``threads``:
         the compiled searches may run side by side (else one after the other: the same
-        path)."""
+        path). ``check_ends``: the compiled search checks the start and the goals first
+        (:func:`rrt_connect_compiled`); if one is not FREE, nothing is searched (None)."""
         cfg = self.config
         if planner_name.lower() in NATIVE_PLANNERS:
             lo, hi, step = group.lower, group.upper, cfg.step
@@ -440,9 +465,9 @@ class Planner:
                     edges, start, goals, lo, hi, rng, soon, step, searches=cfg.searches,
                     box_margin=cfg.box_margin, box_share=cfg.box_share,
                     whole_for=cfg.whole_edges_for, finish=todo,
-                    side_by_side=None if threads else False,
+                    side_by_side=None if threads else False, check_ends=check_ends,
                 )  # fmt: skip
-                if path is not None or time.perf_counter() >= deadline:
+                if path is not None or edges.stats.blocked_ends or time.perf_counter() >= deadline:
                     return path, path is not None and todo is not None
             return rrt_connect(edges, start, goals, lo, hi, rng, deadline, step), False
         from robocell.planning import ompl_backend

@@ -83,6 +83,8 @@ class EdgeStats:
     states: int = 0
     iterations: int = 0
     nodes: int = 0
+    # rrt_connect_compiled(check_ends=True) found the start or a goal not FREE: nothing searched
+    blocked_ends: bool = False
 
 
 class Edges:
@@ -232,6 +234,7 @@ def rrt_connect_compiled(
     side_by_side: bool | None = None,
     whole_for: int = 40,
     finish: Finish | None = None,
+    check_ends: bool = False,
 ) -> NDArray[np.float64] | None:
     """:func:`rrt_connect` compiled whole on the collision kernel (see
     :mod:`robocell.planning._kernels`): a path, or None when the deadline passed or a tree
@@ -276,7 +279,11 @@ def rrt_connect_compiled(
 
     ``finish``: the path found shortcut in the same kernel call (``_kernels.plan_in``), as
     :func:`shortcut_compiled` does it with these settings; the planner then checks it
-    (``_kernels.validate_path``)."""
+    (``_kernels.validate_path``).
+
+    ``check_ends``: the start and the goals are classified first, in the same call; if one
+    is not FREE (in collision, or unsure near contact), nothing is searched, the result is
+    None and ``edges.stats.blocked_ends`` is set: the caller checks them exactly."""
     _, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
     inputs = edges.checker.compiled_inputs  # type: ignore[attr-defined]
     searches = max(1, min(searches, SEARCH_SLOTS))
@@ -293,10 +300,11 @@ def rrt_connect_compiled(
             side_by_side = searches > 1 and _threadsafe_layer()
         path, status, st, shortcut_states = PK.plan_in(
             start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
-            next_epoch((searches + 1) << 40), cap, first_slot, box_margin, box_share,
+            next_epoch((searches + 2) << 40), cap, first_slot, box_margin, box_share,
             whole_for, side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
-            finish.min_states, float(finish.min_gain),
+            finish.min_states, float(finish.min_gain), check_ends,
         )  # fmt: skip
+    edges.stats.blocked_ends = status == PK.BLOCKED
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
     edges.stats.states += int(st[3]) + int(shortcut_states)
@@ -385,9 +393,9 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     for side_by_side in (True, False):
         PK.plan_in(
             q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
-            inputs, next_epoch((SEARCH_SLOTS + 1) << 40), 16,
+            inputs, next_epoch((SEARCH_SLOTS + 2) << 40), 16,
             scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, 40, side_by_side, 0, 0.0, 1, 0.5, 1,
-            0.0,
+            0.0, False,
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1, 0.0)
     _WARM[0] = not searches_only
