@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from bench_rest import busy  # this folder's (python benchmarks/bench_cold.py)
 from robocell.apps.bench_planning import default_mbm_dir, load_robot, set_problems
 from robocell.planning import JointGoal, MotionPlanRequest, Planner, PlannerConfig
 from robocell.scene import _kernels as K
@@ -43,12 +44,6 @@ GROUPS = {
     "world grid": ("world_values",),
     "tables": ("table_values",),
 }  # fmt: skip
-
-
-def busy(seconds: float) -> None:
-    end = time.perf_counter() + seconds
-    while time.perf_counter() < end:
-        pass
 
 
 def flush() -> None:
