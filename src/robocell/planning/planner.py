@@ -210,6 +210,7 @@ class Planner:
                 rng = Seeds(request.seed)
                 tries -= 1
                 continue
+            defer = False  # the search's call found them FREE: later tries need not ask again
             stats["checked_states"] = stats.get("checked_states", 0) + edges.stats.states
             if path is None:
                 reason = (
@@ -259,7 +260,7 @@ class Planner:
                 best, best_dev = path, dev
         stats["tries"] = tries
         if best is None and defer:
-            # the start and the goals, if no search checked them (no time left for one)
+            # the start and the goals, if no search ran to check them (no time left for one)
             self._start(group, request, checker)
             self.goal_configurations(group, request.goal, start, checker)
         if best is None:
