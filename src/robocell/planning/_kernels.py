@@ -10,6 +10,7 @@ Python search, which settles such states exactly, when the compiled one finds no
 from __future__ import annotations
 
 import math
+import platform
 import sys
 import time
 
@@ -72,6 +73,38 @@ else:
         return t
 
 
+@intrinsic
+def _atomic_add(typingctx, arr, i, v):  # type: ignore[no-untyped-def]
+    """arr[i] += v as one atomic step (sequentially consistent) on an int64 array; returns
+    the value before. The searches' threads share a few counters through it (_search_one)."""
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        aryty = signature.args[0]
+        ary = context.make_array(aryty)(context, builder, args[0])
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [args[1]])
+        return builder.atomic_rmw("add", ptr, args[2], "seq_cst")
+
+    return types.int64(arr, i, v), codegen
+
+
+@intrinsic
+def _pause(typingctx):  # type: ignore[no-untyped-def]
+    """The CPU's spin-wait hint (x86's ``pause``; nothing elsewhere), in a thread that polls
+    a counter another thread will change."""
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        if _X86:
+            fnty = ir.FunctionType(ir.VoidType(), [])
+            builder.call(cgutils.get_or_insert_function(builder.module, fnty, _PAUSE), [])
+        return context.get_dummy_value()
+
+    return types.none(), codegen
+
+
+_X86 = platform.machine().lower() in ("x86_64", "amd64", "i686", "x86")
+_PAUSE = "llvm.x86.sse2.pause"  # LLVM's intrinsic (numba's JIT takes no inline assembly)
+
+
 @njit(cache=True, inline="always")
 def _edge_states(a, b, resolution, buf, coarse):  # type: ignore[no-untyped-def]
     """The states of the segment a → b (b included, a not), at most ``resolution`` apart per
@@ -104,8 +137,16 @@ def _edge_states(a, b, resolution, buf, coarse):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _beaten(found, me, work):  # type: ignore[no-untyped-def]
-    """Whether another search found a path with less than ``work`` done."""
+def _beaten(found, me, work, first_wins):  # type: ignore[no-untyped-def]
+    """Whether search ``me``, with ``work`` done, has lost: search 0 wins if it finds a path
+    within ``first_wins`` work, else the one that finds a path with the least work does.
+    Search 0 goes on until it has done more than that work, the others stop once it found
+    a path within it; any search stops once another found a path with less work done."""
+    if me == 0:
+        if work <= first_wins:
+            return False
+    elif found[0] <= first_wins:
+        return True
     for j in range(found.shape[0]):
         if j != me and found[j] < work:
             return True
@@ -178,7 +219,7 @@ def _extend(Q, P, n, i, q_to, step, resolution, sc, epoch, buf, stats, whole):  
 @njit(cache=True, nogil=True)
 def rrt_connect(
     start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, epoch, cap,
-    slot, found, me, box_lo, box_hi, p_box, whole_for,
+    slot, found, me, first_wins, box_lo, box_hi, p_box, whole_for,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A collision-free path (K, dof) from ``start`` to one of ``goals`` (G, dof) and a status
     (FOUND, NOT_FOUND when ``deadline`` (time.perf_counter) passed, FULL when a tree reached
@@ -186,9 +227,9 @@ def rrt_connect(
 
     Runs without the GIL, on scratch slot ``slot``, so that searches with other seeds can run
     beside it: ``found[me]`` is set to its work (see :func:`_work`) when it finds a path,
-    and it stops (STOPPED) once its work exceeds that of another search that found one
-    (``found[j]``, j ≠ me). Which search wins is then the one that needs the least work, however the
-    threads are scheduled."""
+    and it stops (STOPPED) once it has lost (:func:`_beaten`: search 0 if it finds a path
+    within ``first_wins`` work, else the one that needs the least work). Which search wins
+    is then the same however the threads are scheduled."""
     np.random.seed(seed)  # noqa: NPY002 (numba's generator: the legacy API is what it compiles)
     dof = start.shape[0]
     stats = np.zeros(5, np.int64)  # iterations, nodes, epochs used, states checked, work
@@ -228,7 +269,7 @@ def rrt_connect(
         if na >= cap - 1 or nb >= cap - 1:
             stats[1] = na + nb
             return empty, FULL, stats
-        if _beaten(found, me, _work(stats, scratch, slot, placed)):
+        if _beaten(found, me, _work(stats, scratch, slot, placed), first_wins):
             stats[1] = na + nb
             return empty, STOPPED, stats
         stats[0] += 1
@@ -293,12 +334,14 @@ def rrt_connect(
 @njit(cache=True, parallel=True, nogil=True)
 def rrt_connect_many(
     start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs, cap,
-    first_slot, box_lo, box_hi, p_box, whole_for, finish,
+    first_slot, first_wins, box_lo, box_hi, p_box, whole_for, finish, final,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`rrt_connect` once per seed of ``seeds``, side by side on the kernel's threads
     (search i on scratch slot ``first_slot + i``, from stamp ``epochs[i]``): each stops once
-    another has found a path with less work. A search that finds a path shortcuts it at once
-    on its own thread (``finish``: see :func:`_search_one`), before it knows whether it won.
+    it has lost (search 0 wins if it finds a path within ``first_wins`` work, else the one
+    that finds a path with the least work). A search that finds a path shortcuts it at once
+    on its own thread (``finish``: see :func:`_search_one`), before it knows whether it won;
+    then (``final``) the threads check the winner's path together, as the final check would.
     Returns :func:`_search_outputs`. Launching them here cost 10–20 µs instead of the
     150–200 µs of a Python thread's handoff (measured)."""
     out = _search_outputs(seeds.shape[0], cap, start.shape[0])
@@ -306,7 +349,8 @@ def rrt_connect_many(
         # prange's index is unsigned: _search_one would be compiled anew for it
         _search_one(
             np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step, model,
-            scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, out,
+            scratch, epochs, cap, first_slot, first_wins, box_lo, box_hi, p_box, whole_for,
+            finish, final, out,
         )  # fmt: skip
     return out
 
@@ -315,8 +359,8 @@ def rrt_connect_many(
 def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
     """What n searches return (:func:`rrt_connect_many`): paths (n, 2·cap, dof) of which path
     i is the first ``lengths[i]`` rows, statuses, stats (n, 5), the work each had done when
-    it found its path, whether its path is shortcut already, and the states its shortcut
-    checked."""
+    it found its path, whether its path is shortcut already, the states its shortcut
+    checked, and the counters the threads share (SYNC_*, :func:`_final_share`)."""
     return (
         np.empty((n, 2 * cap, dof)),
         np.zeros(n, np.int64),
@@ -325,13 +369,14 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
         np.full(n, np.iinfo(np.int64).max, np.int64),
         np.zeros(n, np.bool_),
         np.zeros(n, np.int64),
+        np.zeros(SYNC_STARTED + 2 * n, np.int64),
     )
 
 
 @njit(cache=True, nogil=True)
 def _search_one(
     i, start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs,
-    cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, out,
+    cap, first_slot, first_wins, box_lo, box_hi, p_box, whole_for, finish, final, out,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Search i of :func:`rrt_connect_many` (seed ``seeds[i]``, scratch slot
     ``first_slot + i``, stamps from ``epochs[i]``), its results written into ``out``
@@ -342,14 +387,21 @@ def _search_one(
     from ``epoch + i·2**40 / n`` of n searches). A search that finds its path first used to
     wait at the end of the race for the other to do as much work, 0.1–0.2 ms when the other's
     thread was slow to wake; its shortcut now runs meanwhile. Whichever search wins, the path
-    is the same: the winner's shortcut, with the same seed."""
-    paths, lengths, statuses, stats, found, shortened, shortcut_states = out
+    is the same: the winner's shortcut, with the same seed.
+
+    ``final`` = (resolution, max_deviation, chunk, epoch, concurrent): with resolution > 0
+    and a shortcut, the search then checks the winner's path with the others
+    (:func:`_final_share`)."""
+    paths, lengths, statuses, stats, found, shortened, shortcut_states, sync = out
+    n = seeds.shape[0]
+    _atomic_add(sync, SYNC_STARTED + i, 1)
     path, status, st = rrt_connect(
         start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
-        epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
+        epochs[i], cap, first_slot + i, found, i, first_wins, box_lo, box_hi, p_box, whole_for,
     )  # fmt: skip
     seed, sc_deadline, tries, share, min_states, sc_epoch, min_gain = finish
-    if status == FOUND and tries > 0:
+    # (not once search 0 has won: its path is the plan's)
+    if status == FOUND and tries > 0 and (i == 0 or found[0] > first_wins):
         budget = max(min_states, int(share * st[3]))
         stride = (1 << 40) // seeds.shape[0]
         short, sc = shortcut(
@@ -364,6 +416,95 @@ def _search_one(
     paths[i, : path.shape[0]] = path
     statuses[i] = status
     stats[i] = st
+    _atomic_add(sync, SYNC_STARTED + n + i, 1)  # done: what it wrote above is there to read
+    resolution_f, max_deviation, chunk, epoch_f, concurrent = final
+    if resolution_f > 0 and tries > 0:
+        _final_share(
+            out, n, first_wins, resolution_f, max_deviation, chunk, epoch_f, concurrent,
+            deadline, model, scratch, first_slot + i,
+        )  # fmt: skip
+
+
+# the counters the searches' threads share (_search_outputs' last array): the next chunk of
+# the final check's states to take, whether one was not FREE, how many were checked FREE, of
+# how many; then per search whether it started, then whether it is done
+SYNC_NEXT, SYNC_BAD, SYNC_CHECKED, SYNC_STATES, SYNC_STARTED = 0, 1, 2, 3, 4
+
+
+@njit(cache=True)
+def _best(statuses, found, n, first_wins):  # type: ignore[no-untyped-def]
+    """The search whose path the plan takes (:func:`_beaten`'s rule): search 0 if it found
+    one within ``first_wins`` work, else the one that found one with the least work (search
+    0 if none did)."""
+    if statuses[0] == FOUND and found[0] <= first_wins:
+        return 0
+    best = 0
+    for i in range(n):
+        if statuses[i] == FOUND and (statuses[best] != FOUND or found[i] < found[best]):
+            best = i
+    return best
+
+
+@njit(cache=True)
+def _decided(sync, statuses, found, n, first_wins):  # type: ignore[no-untyped-def]
+    """:func:`_best` once it is known (the searches it depends on are done, their outputs
+    written), else −1."""
+    if _atomic_add(sync, SYNC_STARTED + n, 0) > 0 and statuses[0] == FOUND:
+        if found[0] <= first_wins:
+            return 0
+    for j in range(n):
+        if _atomic_add(sync, SYNC_STARTED + n + j, 0) == 0:
+            return -1
+    return _best(statuses, found, n, first_wins)
+
+
+@njit(cache=True)
+def _final_share(
+    out, n, first_wins, resolution, max_deviation, chunk, epoch, concurrent, deadline, model,
+    scratch, slot,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """A search's thread, once its search is done, checks the winner's shortcut path with
+    the others, as :func:`_final_check` would classify it first (:func:`_final_batch`):
+    chunks of ``chunk`` states taken in turn from a shared counter and scanned on the
+    search's own code and scratch slot (:func:`SK.scan`, stamps ``epoch`` + the state's row),
+    until one is not FREE. ``out``'s counters then say whether every state was FREE (the
+    final check's usual answer, the caller then needs no final check of its own).
+
+    A thread waits for the winner to be known (pausing) only while the searches it waits
+    for run on other threads: started, or ``concurrent`` (each search has a thread of its
+    own, as numba's OpenMP layer gives them); else the last search to finish checks.
+    Taken from a counter, the chunks go to the threads that are awake: when the other
+    thread of a plan that follows a rest is slow to wake (0.2–0.4 ms on this machine),
+    the first thread checks on instead of waiting for it, at the end of the race, as the
+    final check's own call had to (its chunks dealt to both threads)."""
+    paths, lengths, statuses, _, found, shortened, _, sync = out
+    while True:
+        w = _decided(sync, statuses, found, n, first_wins)
+        if w >= 0:
+            break
+        if not concurrent:
+            for j in range(n):
+                if _atomic_add(sync, SYNC_STARTED + n + j, 0) == 0:
+                    if _atomic_add(sync, SYNC_STARTED + j, 0) == 0:
+                        return  # not running: it checks when it is done
+        if _clock() > deadline:
+            return
+        _pause()
+    if statuses[w] != FOUND or not shortened[w]:
+        return
+    both = _final_batch(paths[w, : lengths[w]], resolution, max_deviation)
+    N = both.shape[0]
+    sync[SYNC_STATES] = N  # the same in every thread
+    sc = SK.scanner(model, scratch, slot, chunk)
+    while _atomic_add(sync, SYNC_BAD, 0) == 0:
+        c0 = _atomic_add(sync, SYNC_NEXT, 1) * chunk
+        if c0 >= N:
+            break
+        c1 = min(N, c0 + chunk)
+        if SK.scan(both[c0:c1], c1 - c0, sc, epoch + c0) < c1 - c0:
+            _atomic_add(sync, SYNC_BAD, 1)
+            break
+        _atomic_add(sync, SYNC_CHECKED, c1 - c0)
 
 
 @njit(cache=True, inline="always")
@@ -505,7 +646,8 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
 def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
     first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_seed, shortcut_deadline,
-    shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain, check_ends,
+    shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain, check_ends, first_wins,
+    final_resolution, max_deviation, final_chunk, concurrent,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A plan's search in one call: the searches of
     :func:`robocell.planning.rrt.rrt_connect_compiled`, then (``shortcut_tries`` > 0) the
@@ -517,7 +659,8 @@ def plan_in(
     The searches: one per seed of ``seeds``, side by side on the kernel's threads
     (:func:`rrt_connect_many`) or one after the other (each later one stops once it has done
     more work than an earlier one that found a path, so that the same one wins), search i on
-    scratch slot ``first_slot + i`` from stamp ``epoch + i·2**40``. Samples come from the box
+    scratch slot ``first_slot + i`` from stamp ``epoch + i·2**40``; search 0 wins if it finds
+    a path within ``first_wins`` work (:func:`_beaten`). Samples come from the box
     around the start and the goals grown by ``box_margin`` with probability ``p_box``; edges
     are added whole for the first ``whole_for`` iterations, then as far as free. Side by
     side, each search that finds a path shortcuts it at once on its own thread and slot
@@ -533,12 +676,21 @@ def plan_in(
     checker's batch classifier instead of ``scan`` (session 16), the first run's second
     process (planning.precompile) took 190 s instead of 144 to compile this kernel.
 
+    With ``final_resolution`` > 0, side by side, the searches' threads then check the
+    winner's shortcut path together as the final check classifies it first, in chunks of
+    ``final_chunk`` states, stopping at the first state that is not FREE
+    (:func:`_final_share`, stamps from ``epoch + (n + 2)·2**40``; ``concurrent``: each search
+    has a thread of its own).
+
     Returns the path (the winner's, or search 0's if none found one), the search's status
-    and stats (:func:`rrt_connect`), and the states the shortcut checked. The final check is
-    a call of its own (:func:`validate_path`): with it in this call too (session 16) plans
-    were 1–7 % faster, but this kernel took 220 s to compile instead of about 130, and the
-    first run, which compiles it in a second process (planning.precompile), 250 s instead
-    of 135 (measured)."""
+    and stats (:func:`rrt_connect`), the states the shortcut checked, and whether that check
+    found every state FREE (then the final check's answer is FREE too; else the caller runs
+    the final check proper, :func:`validate_path`, for where and why). With the final check
+    proper in this call (session 16), on the checker's parallel classifier, this kernel took
+    220 s to compile instead of about 130, and the first run, which compiles it in a second
+    process (planning.precompile), 250 s instead of 135 (measured); ``SK.scan`` is the
+    searches' own code. In session 30 the same scan after the race, in the calling thread
+    alone, made plans slower: on two threads the final check took less."""
     model, scratch = inputs.model, inputs.scratch
     dof = start.shape[0]
     n = seeds.shape[0]
@@ -548,7 +700,7 @@ def plan_in(
         ends[1:] = goals
         sc = SK.scanner(model, scratch, first_slot, ends.shape[0])
         if SK.scan(ends, ends.shape[0], sc, epoch + ((n + 1) << 40)) < ends.shape[0]:
-            return np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0
+            return np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0, False
     box_lo = np.empty(dof)
     box_hi = np.empty(dof)
     for j in range(dof):
@@ -566,10 +718,13 @@ def plan_in(
         shortcut_seed, shortcut_deadline, shortcut_tries, shortcut_share, shortcut_min,
         epoch + (n << 40), shortcut_min_gain,
     )  # fmt: skip
+    final_epoch = epoch + ((n + 2) << 40)
+    final = (final_resolution, max_deviation, final_chunk, final_epoch, concurrent)
     if side_by_side:
         out = rrt_connect_many(
             start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch,
-            epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish,
+            epochs, cap, first_slot, first_wins, box_lo, box_hi, p_box, whole_for, finish,
+            final,
         )  # fmt: skip
     else:
         # one after the other, the shortcut once the winner is known (a search that found a
@@ -581,14 +736,12 @@ def plan_in(
         for i in range(n):
             _search_one(
                 np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step,
-                model, scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for,
-                finish, out,
+                model, scratch, epochs, cap, first_slot, first_wins, box_lo, box_hi, p_box,
+                whole_for, finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent),
+                out,
             )  # fmt: skip
-    paths, lengths, statuses, stats, found, shortened, shortcut_done = out
-    best = 0
-    for i in range(n):
-        if statuses[i] == FOUND and (statuses[best] != FOUND or found[i] < found[best]):
-            best = i
+    paths, lengths, statuses, stats, found, shortened, shortcut_done, sync = out
+    best = _best(statuses, found, n, first_wins)
     path = paths[best, : lengths[best]].copy()
     shortcut_states = shortcut_done[best]
     if statuses[best] == FOUND and shortcut_tries > 0 and not shortened[best]:
@@ -598,7 +751,14 @@ def plan_in(
             shortcut_tries, budget, first_slot, shortcut_min_gain,
         )  # fmt: skip
         shortcut_states = st[3]
-    return path, statuses[best], stats[best].copy(), shortcut_states
+    # the threads' check covered this path whole, every state FREE (_final_share)
+    free = (
+        shortened[best]
+        and sync[SYNC_STATES] > 0
+        and sync[SYNC_BAD] == 0
+        and sync[SYNC_CHECKED] == sync[SYNC_STATES]
+    )
+    return path, statuses[best], stats[best].copy(), shortcut_states, free
 
 
 @njit(cache=True)
@@ -716,6 +876,59 @@ def _final_check(path, resolution, max_deviation, check_segments, model, scratch
     checked over and over, as long on table_under_pick's, and 0.39–0.41 against 0.34–0.36 ms
     in table_under_pick plans that follow an ``ompl`` plan (session 25). They are dropped when
     a segment state is a HIT, as the corners are then not rounded."""
+    states, segment, arcs, off, on = _final_states(path, resolution, max_deviation, check_segments)
+    dof = path.shape[1]
+    P = model[25].shape[0] + model[26].shape[0]
+    # the segments' states off the corners' stretches and the arcs' states, in one batch (one
+    # round of the kernel's threads instead of two, which ended unevenly: 64 + 14 arc states)
+    S = states.shape[0]
+    A = arcs.shape[0]
+    both = np.empty((S + A, dof))
+    both[:S] = states
+    both[S:] = arcs
+    first = np.empty((off.shape[0] + 1, 2), np.int64)
+    first[: off.shape[0]] = off
+    first[off.shape[0], 0] = S
+    first[off.shape[0], 1] = S + A
+    cls_all = np.full(S + A, SK.UNCHECKED, np.int8)
+    flags_all = np.zeros((S + A, P), np.bool_)
+    n_first = _classify_runs(both, first, cls_all, flags_all, model, scratch, epoch, chunk)
+    cls, flags = cls_all[:S], flags_all[:S]
+    arc_cls, arc_flags = cls_all[S:], flags_all[S:]
+    free = True
+    for i in range(S):
+        if cls[i] != SK.FREE and cls[i] != SK.UNCHECKED:
+            free = False
+            break
+    arcs_free = True
+    for i in range(A):
+        if arc_cls[i] != SK.FREE:
+            arcs_free = False
+            break
+    if not (free and arcs_free):
+        # where each segment collides, known whole (for a repair), or whether the corners
+        # may stay sharp
+        _classify_runs(both, on, cls_all, flags_all, model, scratch, epoch + n_first, chunk)
+        for i in range(S):
+            if cls[i] != SK.FREE and cls[i] != SK.UNCHECKED:
+                free = False
+                break
+    for i in range(S):
+        if cls[i] == SK.HIT:  # the corners are not rounded: their arcs do not matter
+            arcs, arc_cls, arc_flags = arcs[:0], arc_cls[:0], arc_flags[:0]
+            arcs_free = True
+            break
+    # what the caller need not look at: 0 when every state classified is FREE
+    summary = (0 if free else 1) + (0 if arcs_free else 2)
+    return states, segment, cls, flags, arcs, arc_cls, arc_flags, summary
+
+
+@njit(cache=True)
+def _final_states(path, resolution, max_deviation, check_segments):  # type: ignore[no-untyped-def]
+    """What :func:`_final_check` classifies: the segment states at ``resolution`` (none if
+    not ``check_segments``) and their segments, the states of the corners' arcs rounded
+    within ``max_deviation``, and the runs [s0, s1) of segment states off the corners'
+    stretches and on them."""
     dof = path.shape[1]
     # the waypoints without repeats (a repeated point has no direction), their corners'
     # arcs, and how far along each segment from each rounded waypoint its arc reaches
@@ -766,49 +979,25 @@ def _final_check(path, resolution, max_deviation, check_segments, model, scratch
     first_off = 0 if states.shape[0] == 0 or not corner[0] else 1
     off = runs[first_off:n_runs:2].copy()
     on = runs[1 - first_off : n_runs : 2].copy()
-    P = model[25].shape[0] + model[26].shape[0]
-    # the segments' states off the corners' stretches and the arcs' states, in one batch (one
-    # round of the kernel's threads instead of two, which ended unevenly: 64 + 14 arc states)
-    S = states.shape[0]
-    A = arcs.shape[0]
-    both = np.empty((S + A, dof))
-    both[:S] = states
-    both[S:] = arcs
-    first = np.empty((off.shape[0] + 1, 2), np.int64)
-    first[: off.shape[0]] = off
-    first[off.shape[0], 0] = S
-    first[off.shape[0], 1] = S + A
-    cls_all = np.full(S + A, SK.UNCHECKED, np.int8)
-    flags_all = np.zeros((S + A, P), np.bool_)
-    n_first = _classify_runs(both, first, cls_all, flags_all, model, scratch, epoch, chunk)
-    cls, flags = cls_all[:S], flags_all[:S]
-    arc_cls, arc_flags = cls_all[S:], flags_all[S:]
-    free = True
-    for i in range(S):
-        if cls[i] != SK.FREE and cls[i] != SK.UNCHECKED:
-            free = False
-            break
-    arcs_free = True
-    for i in range(A):
-        if arc_cls[i] != SK.FREE:
-            arcs_free = False
-            break
-    if not (free and arcs_free):
-        # where each segment collides, known whole (for a repair), or whether the corners
-        # may stay sharp
-        _classify_runs(both, on, cls_all, flags_all, model, scratch, epoch + n_first, chunk)
-        for i in range(S):
-            if cls[i] != SK.FREE and cls[i] != SK.UNCHECKED:
-                free = False
-                break
-    for i in range(S):
-        if cls[i] == SK.HIT:  # the corners are not rounded: their arcs do not matter
-            arcs, arc_cls, arc_flags = arcs[:0], arc_cls[:0], arc_flags[:0]
-            arcs_free = True
-            break
-    # what the caller need not look at: 0 when every state classified is FREE
-    summary = (0 if free else 1) + (0 if arcs_free else 2)
-    return states, segment, cls, flags, arcs, arc_cls, arc_flags, summary
+    return states, segment, arcs, off, on
+
+
+@njit(cache=True)
+def _final_batch(path, resolution, max_deviation):  # type: ignore[no-untyped-def]
+    """The states :func:`_final_check` classifies first, in one array: the segment states
+    off the corners' stretches, then the arcs' (all of them FREE: its answer is FREE)."""
+    states, _, arcs, off, _ = _final_states(path, resolution, max_deviation, True)
+    n = arcs.shape[0]
+    for r in range(off.shape[0]):
+        n += off[r, 1] - off[r, 0]
+    both = np.empty((n, path.shape[1]))
+    row = 0
+    for r in range(off.shape[0]):
+        for i in range(off[r, 0], off[r, 1]):
+            both[row] = states[i]
+            row += 1
+    both[row:] = arcs
+    return both
 
 
 @njit(cache=True)

@@ -96,6 +96,9 @@ class PlannerConfig:
     # the kernel's threads for the searches and the final check: None: unless the process
     # rested since the last plan (they are slow to wake then: see checker.REST_CHUNK)
     threads: bool | None = None
+    # the first search wins if it finds a path within this much work (_kernels._work: sphere
+    # centres placed, a state counting 100), the others only beyond it (rrt_connect_compiled)
+    first_wins: int = 20000
     # a share of the search's samples from around the start and goals (rrt_connect_compiled)
     box_share: float = 0.8
     box_margin: float = 2.0
@@ -231,7 +234,9 @@ class Planner:
                 # proven free as it will be executed, corners rounded: the discrete final
                 # check would add nothing (most paths); else it finds where, for a repair
                 first = self._swept(checker, path, cfg.max_deviation, stats)
-            if first is not None and first.free:
+            if (first is not None and first.free) or (shortened and edges.stats.final_free):
+                # proven free, or every state the final check classifies first is FREE,
+                # found by the searches' threads in their kernel call (_kernels._final_share)
                 ok, dev, bad = True, cfg.max_deviation, _NONE
                 hits: dict[int, Hit] = {}
             else:
@@ -461,12 +466,15 @@ class Planner:
                     todo = Finish(
                         deadline, cfg.shortcut_tries, cfg.shortcut_share, cfg.shortcut_min_states,
                         cfg.shortcut_min_gain,
+                        0.0 if cfg.continuous else cfg.validation_resolution,
+                        cfg.max_deviation, FINAL_CHUNK,
                     )  # fmt: skip
                 path = rrt_connect_compiled(
                     edges, start, goals, lo, hi, rng, soon, step, searches=cfg.searches,
                     box_margin=cfg.box_margin, box_share=cfg.box_share,
                     whole_for=cfg.whole_edges_for, finish=todo,
                     side_by_side=None if threads else False, check_ends=check_ends,
+                    first_wins=cfg.first_wins,
                 )  # fmt: skip
                 if path is not None or edges.stats.blocked_ends or time.perf_counter() >= deadline:
                     return path, path is not None and todo is not None

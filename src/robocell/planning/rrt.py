@@ -85,6 +85,10 @@ class EdgeStats:
     nodes: int = 0
     # rrt_connect_compiled(check_ends=True) found the start or a goal not FREE: nothing searched
     blocked_ends: bool = False
+    # rrt_connect_compiled's path (shortcut), as it will be executed, checked by the
+    # searches' threads as the final check classifies it first: every state FREE
+    # (Finish.final_resolution)
+    final_free: bool = False
 
 
 class Edges:
@@ -216,6 +220,13 @@ class Finish:
     share: float = 0.5
     min_states: int = 100
     min_gain: float = 0.0
+    # then, side by side, the final check's states of the winner's shortcut path (its
+    # corners rounded within max_deviation) at this resolution, checked by the searches'
+    # threads in chunks of final_chunk states up to the first that is not FREE (0: not
+    # checked): edges.stats.final_free
+    final_resolution: float = 0.0
+    max_deviation: float = 0.0
+    final_chunk: int = 32
 
 
 def rrt_connect_compiled(
@@ -235,6 +246,7 @@ def rrt_connect_compiled(
     whole_for: int = 40,
     finish: Finish | None = None,
     check_ends: bool = False,
+    first_wins: int = 0,
 ) -> NDArray[np.float64] | None:
     """:func:`rrt_connect` compiled whole on the collision kernel (see
     :mod:`robocell.planning._kernels`): a path, or None when the deadline passed or a tree
@@ -298,13 +310,16 @@ def rrt_connect_compiled(
     with _SEARCH_LOCK:
         if side_by_side is None:
             side_by_side = searches > 1 and _threadsafe_layer()
-        path, status, st, shortcut_states = PK.plan_in(
+        path, status, st, shortcut_states, free = PK.plan_in(
             start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
-            next_epoch((searches + 2) << 40), cap, first_slot, box_margin, box_share,
+            next_epoch((searches + 3) << 40), cap, first_slot, box_margin, box_share,
             whole_for, side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
-            finish.min_states, float(finish.min_gain), check_ends,
+            finish.min_states, float(finish.min_gain), check_ends, int(first_wins),
+            float(finish.final_resolution), float(finish.max_deviation),
+            int(finish.final_chunk), _concurrent(searches),
         )  # fmt: skip
     edges.stats.blocked_ends = status == PK.BLOCKED
+    edges.stats.final_free = bool(free)
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
     edges.stats.states += int(st[3]) + int(shortcut_states)
@@ -328,6 +343,24 @@ def _threadsafe_layer() -> bool:
 
 
 _LAYER: list[bool] = []  # whether numba's threading layer is threadsafe, once it is chosen
+
+
+def _concurrent(searches: int) -> bool:
+    """Whether each of ``searches`` searches side by side gets a thread of its own at once:
+    numba's OpenMP layer gives each iteration of a loop of at most its thread count a
+    thread (TBB's may run them one after the other), so a search's thread may wait for
+    another's result (_kernels._final_share)."""
+    import numba
+
+    if not _OMP:
+        try:
+            _OMP.append(numba.threading_layer() == "omp")  # chosen once per process
+        except ValueError:  # no parallel work has run yet: the layer is not chosen
+            return False
+    return _OMP[0] and numba.get_num_threads() >= searches
+
+
+_OMP: list[bool] = []  # whether numba's threading layer is OpenMP, once it is chosen
 
 
 _SEARCH_LOCK = threading.Lock()  # the searches' scratch slots serve one planner at a time
@@ -393,9 +426,9 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     for side_by_side in (True, False):
         PK.plan_in(
             q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
-            inputs, next_epoch((SEARCH_SLOTS + 2) << 40), 16,
+            inputs, next_epoch((SEARCH_SLOTS + 3) << 40), 16,
             scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, 40, side_by_side, 0, 0.0, 1, 0.5, 1,
-            0.0, False,
+            0.0, False, 0, 0.01, 0.05, 32, False,
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1, 0.0)
     _WARM[0] = not searches_only
