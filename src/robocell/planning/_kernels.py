@@ -137,16 +137,8 @@ def _edge_states(a, b, resolution, buf, coarse):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _beaten(found, me, work, first_wins):  # type: ignore[no-untyped-def]
-    """Whether search ``me``, with ``work`` done, has lost: search 0 wins if it finds a path
-    within ``first_wins`` work, else the one that finds a path with the least work does.
-    Search 0 goes on until it has done more than that work, the others stop once it found
-    a path within it; any search stops once another found a path with less work done."""
-    if me == 0:
-        if work <= first_wins:
-            return False
-    elif found[0] <= first_wins:
-        return True
+def _beaten(found, me, work):  # type: ignore[no-untyped-def]
+    """Whether another search found a path with less than ``work`` done."""
     for j in range(found.shape[0]):
         if j != me and found[j] < work:
             return True
@@ -219,7 +211,7 @@ def _extend(Q, P, n, i, q_to, step, resolution, sc, epoch, buf, stats, whole):  
 @njit(cache=True, nogil=True)
 def rrt_connect(
     start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, epoch, cap,
-    slot, found, me, first_wins, box_lo, box_hi, p_box, whole_for,
+    slot, found, me, box_lo, box_hi, p_box, whole_for,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A collision-free path (K, dof) from ``start`` to one of ``goals`` (G, dof) and a status
     (FOUND, NOT_FOUND when ``deadline`` (time.perf_counter) passed, FULL when a tree reached
@@ -227,9 +219,9 @@ def rrt_connect(
 
     Runs without the GIL, on scratch slot ``slot``, so that searches with other seeds can run
     beside it: ``found[me]`` is set to its work (see :func:`_work`) when it finds a path,
-    and it stops (STOPPED) once it has lost (:func:`_beaten`: search 0 if it finds a path
-    within ``first_wins`` work, else the one that needs the least work). Which search wins
-    is then the same however the threads are scheduled."""
+    and it stops (STOPPED) once its work exceeds that of another search that found one
+    (``found[j]``, j ≠ me). Which search wins is then the one that needs the least work, however the
+    threads are scheduled."""
     np.random.seed(seed)  # noqa: NPY002 (numba's generator: the legacy API is what it compiles)
     dof = start.shape[0]
     stats = np.zeros(5, np.int64)  # iterations, nodes, epochs used, states checked, work
@@ -269,7 +261,7 @@ def rrt_connect(
         if na >= cap - 1 or nb >= cap - 1:
             stats[1] = na + nb
             return empty, FULL, stats
-        if _beaten(found, me, _work(stats, scratch, slot, placed), first_wins):
+        if _beaten(found, me, _work(stats, scratch, slot, placed)):
             stats[1] = na + nb
             return empty, STOPPED, stats
         stats[0] += 1
@@ -334,12 +326,11 @@ def rrt_connect(
 @njit(cache=True, parallel=True, nogil=True)
 def rrt_connect_many(
     start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs, cap,
-    first_slot, first_wins, box_lo, box_hi, p_box, whole_for, finish, final,
+    first_slot, box_lo, box_hi, p_box, whole_for, finish, final,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`rrt_connect` once per seed of ``seeds``, side by side on the kernel's threads
     (search i on scratch slot ``first_slot + i``, from stamp ``epochs[i]``): each stops once
-    it has lost (search 0 wins if it finds a path within ``first_wins`` work, else the one
-    that finds a path with the least work). A search that finds a path shortcuts it at once
+    another has found a path with less work. A search that finds a path shortcuts it at once
     on its own thread (``finish``: see :func:`_search_one`), before it knows whether it won;
     then (``final``) the threads check the winner's path together, as the final check would.
     Returns :func:`_search_outputs`. Launching them here cost 10–20 µs instead of the
@@ -349,8 +340,8 @@ def rrt_connect_many(
         # prange's index is unsigned: _search_one would be compiled anew for it
         _search_one(
             np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step, model,
-            scratch, epochs, cap, first_slot, first_wins, box_lo, box_hi, p_box, whole_for,
-            finish, final, out,
+            scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final,
+            out,
         )  # fmt: skip
     return out
 
@@ -376,7 +367,7 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
 @njit(cache=True, nogil=True)
 def _search_one(
     i, start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs,
-    cap, first_slot, first_wins, box_lo, box_hi, p_box, whole_for, finish, final, out,
+    cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, out,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Search i of :func:`rrt_connect_many` (seed ``seeds[i]``, scratch slot
     ``first_slot + i``, stamps from ``epochs[i]``), its results written into ``out``
@@ -397,11 +388,10 @@ def _search_one(
     _atomic_add(sync, SYNC_STARTED + i, 1)
     path, status, st = rrt_connect(
         start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
-        epochs[i], cap, first_slot + i, found, i, first_wins, box_lo, box_hi, p_box, whole_for,
+        epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
     )  # fmt: skip
     seed, sc_deadline, tries, share, min_states, sc_epoch, min_gain = finish
-    # (not once search 0 has won: its path is the plan's)
-    if status == FOUND and tries > 0 and (i == 0 or found[0] > first_wins):
+    if status == FOUND and tries > 0:
         budget = max(min_states, int(share * st[3]))
         stride = (1 << 40) // seeds.shape[0]
         short, sc = shortcut(
@@ -420,7 +410,7 @@ def _search_one(
     resolution_f, max_deviation, chunk, epoch_f, concurrent = final
     if resolution_f > 0 and tries > 0:
         _final_share(
-            out, n, first_wins, resolution_f, max_deviation, chunk, epoch_f, concurrent,
+            out, n, resolution_f, max_deviation, chunk, epoch_f, concurrent,
             deadline, model, scratch, first_slot + i,
         )  # fmt: skip
 
@@ -429,15 +419,15 @@ def _search_one(
 # the final check's states to take, whether one was not FREE, how many were checked FREE, of
 # how many; then per search whether it started, then whether it is done
 SYNC_NEXT, SYNC_BAD, SYNC_CHECKED, SYNC_STATES, SYNC_STARTED = 0, 1, 2, 3, 4
+# how long a search's thread waits for another search to start on a thread of its own (a
+# sleeping thread wakes in 0.2–0.4 ms here; OpenMP may give fewer threads than asked)
+NOT_STARTED_WAIT = 0.005
 
 
 @njit(cache=True)
-def _best(statuses, found, n, first_wins):  # type: ignore[no-untyped-def]
-    """The search whose path the plan takes (:func:`_beaten`'s rule): search 0 if it found
-    one within ``first_wins`` work, else the one that found one with the least work (search
-    0 if none did)."""
-    if statuses[0] == FOUND and found[0] <= first_wins:
-        return 0
+def _best(statuses, found, n):  # type: ignore[no-untyped-def]
+    """The search whose path the plan takes: the one that found one with the least work
+    (search 0 if none did)."""
     best = 0
     for i in range(n):
         if statuses[i] == FOUND and (statuses[best] != FOUND or found[i] < found[best]):
@@ -446,21 +436,17 @@ def _best(statuses, found, n, first_wins):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _decided(sync, statuses, found, n, first_wins):  # type: ignore[no-untyped-def]
-    """:func:`_best` once it is known (the searches it depends on are done, their outputs
-    written), else −1."""
-    if _atomic_add(sync, SYNC_STARTED + n, 0) > 0 and statuses[0] == FOUND:
-        if found[0] <= first_wins:
-            return 0
+def _decided(sync, statuses, found, n):  # type: ignore[no-untyped-def]
+    """:func:`_best` once it is known (every search done, its outputs written), else −1."""
     for j in range(n):
         if _atomic_add(sync, SYNC_STARTED + n + j, 0) == 0:
             return -1
-    return _best(statuses, found, n, first_wins)
+    return _best(statuses, found, n)
 
 
 @njit(cache=True)
 def _final_share(
-    out, n, first_wins, resolution, max_deviation, chunk, epoch, concurrent, deadline, model,
+    out, n, resolution, max_deviation, chunk, epoch, concurrent, deadline, model,
     scratch, slot,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A search's thread, once its search is done, checks the winner's shortcut path with
@@ -468,27 +454,38 @@ def _final_share(
     chunks of ``chunk`` states taken in turn from a shared counter and scanned on the
     search's own code and scratch slot (:func:`SK.scan`, stamps ``epoch`` + the state's row),
     until one is not FREE. ``out``'s counters then say whether every state was FREE (the
-    final check's usual answer, the caller then needs no final check of its own).
+    final check's usual answer: the caller then needs no final check of its own).
 
-    A thread waits for the winner to be known (pausing) only while the searches it waits
-    for run on other threads: started, or ``concurrent`` (each search has a thread of its
-    own, as numba's OpenMP layer gives them); else the last search to finish checks.
-    Taken from a counter, the chunks go to the threads that are awake: when the other
-    thread of a plan that follows a rest is slow to wake (0.2–0.4 ms on this machine),
-    the first thread checks on instead of waiting for it, at the end of the race, as the
-    final check's own call had to (its chunks dealt to both threads)."""
+    A thread waits for the winner to be known (every search done; pausing) while the
+    searches it waits for run on other threads: started, or ``concurrent`` (each search has
+    a thread of its own, as numba's OpenMP layer gives them) and started within
+    NOT_STARTED_WAIT; else the last search to finish checks alone. Taken from a counter, the
+    chunks go to whichever threads are there, in the same parallel region as the race,
+    instead of a call of its own after it (another region, and Python between the two).
+    Session 31, both ways alternating in one process, each plan in the benchmark's pattern
+    (first in its scene, then after an ``ompl`` plan), 50 problems × 2–4: Panda table_pick
+    0.685–0.702 against 0.732–0.757 ms (three runs), table_under_pick 1.246 against 1.259,
+    box 1.047 against 1.072; UR5 table_pick 1.089 against 1.097, box 1.320 against 1.322,
+    table_under_pick 1.810 against 1.761: there 24 of 50 searches' paths pass through an
+    obstacle between the search's states, the check stops at the first state that is not
+    FREE, and the final check proper runs after it (scanned in the order of
+    :func:`_final_batch`; in order, 1.944 against 1.764)."""
     paths, lengths, statuses, _, found, shortened, _, sync = out
+    t0 = _clock()
     while True:
-        w = _decided(sync, statuses, found, n, first_wins)
+        w = _decided(sync, statuses, found, n)
         if w >= 0:
             break
-        if not concurrent:
-            for j in range(n):
-                if _atomic_add(sync, SYNC_STARTED + n + j, 0) == 0:
-                    if _atomic_add(sync, SYNC_STARTED + j, 0) == 0:
-                        return  # not running: it checks when it is done
-        if _clock() > deadline:
+        now = _clock()
+        if now > deadline:
             return
+        for j in range(n):
+            if _atomic_add(sync, SYNC_STARTED + n + j, 0) == 0:
+                if _atomic_add(sync, SYNC_STARTED + j, 0) == 0:
+                    # not running yet: it checks when it is done (a search said to have a
+                    # thread of its own that has not started in NOT_STARTED_WAIT s has not)
+                    if not concurrent or now - t0 > NOT_STARTED_WAIT:
+                        return
         _pause()
     if statuses[w] != FOUND or not shortened[w]:
         return
@@ -646,7 +643,7 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
 def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
     first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_seed, shortcut_deadline,
-    shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain, check_ends, first_wins,
+    shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain, check_ends,
     final_resolution, max_deviation, final_chunk, concurrent,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A plan's search in one call: the searches of
@@ -659,8 +656,7 @@ def plan_in(
     The searches: one per seed of ``seeds``, side by side on the kernel's threads
     (:func:`rrt_connect_many`) or one after the other (each later one stops once it has done
     more work than an earlier one that found a path, so that the same one wins), search i on
-    scratch slot ``first_slot + i`` from stamp ``epoch + i·2**40``; search 0 wins if it finds
-    a path within ``first_wins`` work (:func:`_beaten`). Samples come from the box
+    scratch slot ``first_slot + i`` from stamp ``epoch + i·2**40``. Samples come from the box
     around the start and the goals grown by ``box_margin`` with probability ``p_box``; edges
     are added whole for the first ``whole_for`` iterations, then as far as free. Side by
     side, each search that finds a path shortcuts it at once on its own thread and slot
@@ -723,8 +719,7 @@ def plan_in(
     if side_by_side:
         out = rrt_connect_many(
             start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch,
-            epochs, cap, first_slot, first_wins, box_lo, box_hi, p_box, whole_for, finish,
-            final,
+            epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final,
         )  # fmt: skip
     else:
         # one after the other, the shortcut once the winner is known (a search that found a
@@ -736,12 +731,11 @@ def plan_in(
         for i in range(n):
             _search_one(
                 np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step,
-                model, scratch, epochs, cap, first_slot, first_wins, box_lo, box_hi, p_box,
-                whole_for, finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent),
-                out,
+                model, scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for,
+                finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent), out,
             )  # fmt: skip
     paths, lengths, statuses, stats, found, shortened, shortcut_done, sync = out
-    best = _best(statuses, found, n, first_wins)
+    best = _best(statuses, found, n)
     path = paths[best, : lengths[best]].copy()
     shortcut_states = shortcut_done[best]
     if statuses[best] == FOUND and shortcut_tries > 0 and not shortened[best]:
@@ -984,19 +978,28 @@ def _final_states(path, resolution, max_deviation, check_segments):  # type: ign
 
 @njit(cache=True)
 def _final_batch(path, resolution, max_deviation):  # type: ignore[no-untyped-def]
-    """The states :func:`_final_check` classifies first, in one array: the segment states
-    off the corners' stretches, then the arcs' (all of them FREE: its answer is FREE)."""
+    """The states :func:`_final_check` classifies first, in one array (all of them FREE:
+    its answer is FREE): the segment states off the corners' stretches and the arcs',
+    every 8th first, then the 4th, 2nd and 1st between them, so that where the path
+    passes through an obstacle (most such stretches span several states) a scan in this
+    order meets it early."""
     states, _, arcs, off, _ = _final_states(path, resolution, max_deviation, True)
     n = arcs.shape[0]
     for r in range(off.shape[0]):
         n += off[r, 1] - off[r, 0]
-    both = np.empty((n, path.shape[1]))
+    ordered = np.empty((n, path.shape[1]))
     row = 0
     for r in range(off.shape[0]):
         for i in range(off[r, 0], off[r, 1]):
-            both[row] = states[i]
+            ordered[row] = states[i]
             row += 1
-    both[row:] = arcs
+    ordered[row:] = arcs
+    both = np.empty_like(ordered)
+    row = 0
+    for first in (0, 4, 2, 6, 1, 5, 3, 7):
+        for i in range(first, n, 8):
+            both[row] = ordered[i]
+            row += 1
     return both
 
 

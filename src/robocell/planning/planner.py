@@ -96,9 +96,6 @@ class PlannerConfig:
     # the kernel's threads for the searches and the final check: None: unless the process
     # rested since the last plan (they are slow to wake then: see checker.REST_CHUNK)
     threads: bool | None = None
-    # the first search wins if it finds a path within this much work (_kernels._work: sphere
-    # centres placed, a state counting 100), the others only beyond it (rrt_connect_compiled)
-    first_wins: int = 20000
     # a share of the search's samples from around the start and goals (rrt_connect_compiled)
     box_share: float = 0.8
     box_margin: float = 2.0
@@ -474,7 +471,6 @@ class Planner:
                     box_margin=cfg.box_margin, box_share=cfg.box_share,
                     whole_for=cfg.whole_edges_for, finish=todo,
                     side_by_side=None if threads else False, check_ends=check_ends,
-                    first_wins=cfg.first_wins,
                 )  # fmt: skip
                 if path is not None or edges.stats.blocked_ends or time.perf_counter() >= deadline:
                     return path, path is not None and todo is not None

@@ -246,7 +246,6 @@ def rrt_connect_compiled(
     whole_for: int = 40,
     finish: Finish | None = None,
     check_ends: bool = False,
-    first_wins: int = 0,
 ) -> NDArray[np.float64] | None:
     """:func:`rrt_connect` compiled whole on the collision kernel (see
     :mod:`robocell.planning._kernels`): a path, or None when the deadline passed or a tree
@@ -290,8 +289,10 @@ def rrt_connect_compiled(
     table_under_pick 7 % against 64, and 64 the UR5's cage 20 %.
 
     ``finish``: the path found shortcut in the same kernel call (``_kernels.plan_in``), as
-    :func:`shortcut_compiled` does it with these settings; the planner then checks it
-    (``_kernels.validate_path``).
+    :func:`shortcut_compiled` does it with these settings; with ``finish.final_resolution``
+    and side by side, the searches' threads then check it as the final check classifies it
+    first (``_kernels._final_share``): ``edges.stats.final_free`` when every state is FREE,
+    else the planner checks it (``_kernels.validate_path``).
 
     ``check_ends``: the start and the goals are classified first, in the same call; if one
     is not FREE (in collision, or unsure near contact), nothing is searched, the result is
@@ -314,7 +315,7 @@ def rrt_connect_compiled(
             start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
             next_epoch((searches + 3) << 40), cap, first_slot, box_margin, box_share,
             whole_for, side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
-            finish.min_states, float(finish.min_gain), check_ends, int(first_wins),
+            finish.min_states, float(finish.min_gain), check_ends,
             float(finish.final_resolution), float(finish.max_deviation),
             int(finish.final_chunk), _concurrent(searches),
         )  # fmt: skip
@@ -428,7 +429,7 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
             q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
             inputs, next_epoch((SEARCH_SLOTS + 3) << 40), 16,
             scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, 40, side_by_side, 0, 0.0, 1, 0.5, 1,
-            0.0, False, 0, 0.01, 0.05, 32, False,
+            0.0, False, 0.01, 0.05, 32, False,
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1, 0.0)
     _WARM[0] = not searches_only
