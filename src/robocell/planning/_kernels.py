@@ -802,6 +802,22 @@ def segment_states(path, resolution):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
+def _gathered(qs, runs, extra):  # type: ignore[no-untyped-def]
+    """The states of ``qs`` in the runs [s0, s1) of ``runs`` (R, 2), in one array, with
+    ``extra`` rows left after them."""
+    total = 0
+    for r in range(runs.shape[0]):
+        total += runs[r, 1] - runs[r, 0]
+    batch = np.empty((total + extra, qs.shape[1]))
+    row = 0
+    for r in range(runs.shape[0]):
+        for s in range(runs[r, 0], runs[r, 1]):
+            batch[row] = qs[s]
+            row += 1
+    return batch
+
+
+@njit(cache=True)
 def _classify_runs(qs, runs, cls, flags, model, scratch, epoch, chunk):  # type: ignore[no-untyped-def]
     """Classify the states of ``qs`` in the runs [s0, s1) of ``runs`` (R, 2), with the unsure
     pairs' flags, into ``cls`` and ``flags`` at their rows: gathered into one batch for the
@@ -813,17 +829,10 @@ def _classify_runs(qs, runs, cls, flags, model, scratch, epoch, chunk):  # type:
     them before any plan, and the copy (two more functions around the classifier, one of them
     parallel) took 61 s to compile in the main process, on the path of a first run's first
     plan (session 17, measured); gathering costs a microsecond."""
-    total = 0
-    for r in range(runs.shape[0]):
-        total += runs[r, 1] - runs[r, 0]
+    batch = _gathered(qs, runs, 0)
+    total = batch.shape[0]
     if total == 0:
         return total
-    batch = np.empty((total, qs.shape[1]))
-    row = 0
-    for r in range(runs.shape[0]):
-        for s in range(runs[r, 0], runs[r, 1]):
-            batch[row] = qs[s]
-            row += 1
     if total <= chunk:
         out, out_flags = SK.classify_serial(
             batch, model, scratch, epoch, np.bool_(True), np.bool_(False), np.int64(0)
@@ -984,16 +993,9 @@ def _final_batch(path, resolution, max_deviation):  # type: ignore[no-untyped-de
     passes through an obstacle (most such stretches span several states) a scan in this
     order meets it early."""
     states, _, arcs, off, _ = _final_states(path, resolution, max_deviation, True)
-    n = arcs.shape[0]
-    for r in range(off.shape[0]):
-        n += off[r, 1] - off[r, 0]
-    ordered = np.empty((n, path.shape[1]))
-    row = 0
-    for r in range(off.shape[0]):
-        for i in range(off[r, 0], off[r, 1]):
-            ordered[row] = states[i]
-            row += 1
-    ordered[row:] = arcs
+    ordered = _gathered(states, off, arcs.shape[0])
+    n = ordered.shape[0]
+    ordered[n - arcs.shape[0] :] = arcs
     both = np.empty_like(ordered)
     row = 0
     for first in (0, 4, 2, 6, 1, 5, 3, 7):
