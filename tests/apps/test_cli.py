@@ -115,3 +115,28 @@ def test_speed_up_interval_holds_the_ratio_and_follows_each_problem():
     assert np.isfinite(ratio_interval(invalid, results(other, "ompl"))).all()
     nothing = results([float("nan")] * 3, "robocell")
     assert np.isnan(ratio_interval(nothing, results(other[:3], "ompl"))).all()
+
+
+def test_run_ratios_give_each_runs_own_ratio():
+    """--runs N: each run's ratio of medians from that run's plans alone (a problem's r-th
+    plans by both planners), so a baseline 8x slower in one run and 12x in the other gives
+    8 and 12 while the pooled ratio lies between; invalid problems are left out."""
+    import numpy as np
+
+    from robocell.apps.bench_planning import ProblemResult, run_ratios
+
+    rng = np.random.default_rng(5)
+    native_times = rng.uniform(0.5e-3, 2e-3, (40, 2))
+    factors = (8.0, 12.0)
+    native, ompl = [], []
+    for k in range(40):
+        for r in range(2):
+            t = native_times[k, r]
+            native.append(ProblemResult("panda", "s", k, "robocell", True, time=t))
+            ompl.append(ProblemResult("panda", "s", k, "ompl", True, time=factors[r] * t))
+    assert run_ratios(native, ompl) == pytest.approx(list(factors))
+    # a problem that is not valid counts in no run
+    bad = [ProblemResult("panda", "s", 99, "robocell", False) for _ in range(2)]
+    slow = [ProblemResult("panda", "s", 99, "ompl", False) for _ in range(2)]
+    assert run_ratios(native + bad, ompl + slow) == pytest.approx(list(factors))
+    assert run_ratios(bad, slow) == []

@@ -19,7 +19,10 @@ construction (its sphere model, and coal's model of the scene for ``ompl``) are 
 in MoveIt's benchmarks. The planners take turns going first in each new scene.
 
 Each baseline's row gives its speed-up (its median over the native planner's) and that ratio's
-95 % interval over the set's problems (:func:`ratio_interval`).
+95 % interval over the set's problems (:func:`ratio_interval`); with ``--runs N``, also the
+lowest and highest ratio of a single run (:func:`run_ratios`): the spread a one-run benchmark
+shows from seed to seed (session 32, Panda table_pick over ten seeds, one run each: 9.4–17.4×;
+OMPL's median ranged from 6.5 to 10.7 ms).
 
 Problem k plans with seed ``--seed`` + k, OMPL's plans too (OMPL's seed sequence restarts
 before each plan), so that a run repeats whatever ran before it in the process. ``--runs N``
@@ -87,6 +90,8 @@ class SetRow:
     speedup: float = float("nan")
     speedup_low: float = float("nan")
     speedup_high: float = float("nan")
+    # with --runs N: the ratio in each run alone (run_ratios)
+    speedup_runs: list[float] = field(default_factory=list)
 
 
 RESAMPLES = 2000  # of the problems, for a speed-up's interval
@@ -105,14 +110,45 @@ def ratio_interval(
     is hard for both weighs on both medians together. It says how far another draw of 50
     problems like these could move the ratio, not how far the machine's load can (the
     planners take turns, problem by problem, to share that). NaN when no problem is valid."""
+    tables = _time_tables(native, baseline)
+    if tables is None:
+        return float("nan"), float("nan")
+    a, b = tables
+    n = a.shape[0]
+    draws = np.random.default_rng(seed).integers(0, n, (resamples, n))
+    ratios = np.median(b[draws].reshape(resamples, -1), axis=1) / np.median(
+        a[draws].reshape(resamples, -1), axis=1
+    )
+    tail = 50.0 * (1.0 - level)
+    low, high = np.percentile(ratios, [tail, 100.0 - tail])
+    return float(low), float(high)
+
+
+def run_ratios(native: list[ProblemResult], baseline: list[ProblemResult]) -> list[float]:
+    """The ratio of the baseline's median planning time to the native planner's in each run
+    of ``--runs`` (each problem's r-th plans by both planners; run r plans with seeds of its
+    own): what one run of the benchmark, with another seed, could have printed. The pooled
+    ratio (over all runs) is steadier; the spread of these says how often a single run falls
+    below a target. Empty when no problem is valid."""
+    tables = _time_tables(native, baseline)
+    if tables is None:
+        return []
+    a, b = tables
+    return [float(np.median(b[:, r]) / np.median(a[:, r])) for r in range(a.shape[1])]
+
+
+def _time_tables(
+    native: list[ProblemResult], baseline: list[ProblemResult]
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """(problems, runs) planning times of the native planner and of a baseline over the
+    set's valid problems, a problem's plans in the order they ran; None if none is valid."""
     problems = sorted({r.problem for r in native if r.valid})
     if not problems:
-        return float("nan"), float("nan")
+        return None
     index = {k: i for i, k in enumerate(problems)}
     runs = max(1, len([r for r in native if r.valid]) // len(problems))
 
     def table(results: list[ProblemResult]) -> np.ndarray:
-        # (problems, runs) planning times; a problem's runs in the order they ran
         out = np.full((len(problems), runs), np.nan)
         seen = np.zeros(len(problems), np.int64)
         for r in results:
@@ -122,14 +158,7 @@ def ratio_interval(
                 seen[i] += 1
         return out
 
-    a, b = table(native), table(baseline)
-    draws = np.random.default_rng(seed).integers(0, len(problems), (resamples, len(problems)))
-    ratios = np.median(b[draws].reshape(resamples, -1), axis=1) / np.median(
-        a[draws].reshape(resamples, -1), axis=1
-    )
-    tail = 50.0 * (1.0 - level)
-    low, high = np.percentile(ratios, [tail, 100.0 - tail])
-    return float(low), float(high)
+    return table(native), table(baseline)
 
 
 def default_mbm_dir() -> Path:
@@ -322,6 +351,8 @@ def run(
     )
     if baselines:
         header += f" {'speed-up':>9} {'95 % interval':>13}"
+        if runs > 1:
+            header += f" {'each run':>11}"
     print(
         f"planning time budget {timeout} s per problem, first {limit} problems per set"
         + (
@@ -351,6 +382,10 @@ def run(
                     row.speedup = row.median_ms / native.median_ms
                     row.speedup_low, row.speedup_high = ratio_interval(native.results, row.results)
                     line += f" {row.speedup:8.1f}x {row.speedup_low:6.1f}–{row.speedup_high:<5.1f}"
+                    if runs > 1:
+                        row.speedup_runs = run_ratios(native.results, row.results)
+                        each = f"{min(row.speedup_runs):.1f}–{max(row.speedup_runs):.1f}"
+                        line += f" {each:>11}"
                 print(line, flush=True)
                 all_rows.append(row)
     if json_path:
