@@ -384,7 +384,8 @@ def run(
                     line += f" {row.speedup:8.1f}x {row.speedup_low:6.1f}–{row.speedup_high:<5.1f}"
                     if runs > 1:
                         row.speedup_runs = run_ratios(native.results, row.results)
-                        each = f"{min(row.speedup_runs):.1f}–{max(row.speedup_runs):.1f}"
+                        runs_r = row.speedup_runs or [float("nan")]  # no valid problem
+                        each = f"{min(runs_r):.1f}–{max(runs_r):.1f}"
                         line += f" {each:>11}"
                 print(line, flush=True)
                 all_rows.append(row)
