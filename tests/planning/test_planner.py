@@ -123,7 +123,7 @@ def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path
         return search(*args, **kwargs)
 
     def spy_validate(*args):  # type: ignore[no-untyped-def]
-        calls.append(("chunk", args[-1]))
+        calls.append(("chunk", args[6]))
         return validate(*args)
 
     p = Planner(walled)

@@ -5,6 +5,7 @@ import pytest
 
 from robocell import PlanningScene, Pose
 from robocell.planning.rrt import (
+    NOTHING_CHECKED,
     Edges,
     Finish,
     Seeds,
@@ -395,8 +396,9 @@ def test_final_check_classifies_each_state_as_the_checker_does(irb120):
         if waypoints == 3:  # short segments: at most one chunk of states
             path = path[0] + 0.04 * (path - path[0])
         out = PK.validate_path(
-            path, 0.01, 0.05, True, checker.compiled_inputs, next_epoch(1 << 40), CHUNK
-        )
+            path, 0.01, 0.05, True, checker.compiled_inputs, next_epoch(1 << 40), CHUNK,
+            NOTHING_CHECKED,
+        )  # fmt: skip
         states, segment, cls, flags, arcs, arc_cls, arc_flags, summary = out
         sizes.add(len(states) > CHUNK)
         assert np.allclose(states[[0, -1]], path[[0, -1]], rtol=0, atol=1e-12)
@@ -453,7 +455,7 @@ def test_the_searches_threads_check_the_winners_path_as_the_final_check_does(wal
                     assert np.array_equal(paths[0], paths[1])
                     *_, summary = PK.validate_path(
                         paths[1], 0.01, 0.05, True, checker.compiled_inputs,
-                        next_epoch(1 << 40), 32,
+                        next_epoch(1 << 40), 32, NOTHING_CHECKED,
                     )  # fmt: skip
                     if side_by_side:
                         assert edges.stats.final_free == (summary == 0)
@@ -463,3 +465,46 @@ def test_the_searches_threads_check_the_winners_path_as_the_final_check_does(wal
         finally:
             numba.set_num_threads(threads)
     assert seen[threads] == {False, True} and True in seen[1]
+
+
+def test_the_final_check_takes_the_states_the_searches_threads_found_not_free(walled, irb120):
+    """A path the searches' threads found not FREE throughout (past a wall the search's
+    coarse steps skip over, past a mesh that leaves states unsure): the threads checked every
+    state and noted which were not FREE, and the final check given those classifies only
+    them again, with the same answers as the final check from scratch (classes, unsure
+    pairs, summary)."""
+    from robocell.planning import _kernels as PK
+    from robocell.scene.checker import next_epoch
+    from tests.conftest import past_a_mesh
+
+    compared = 0
+    for scene in (walled, past_a_mesh(irb120)):
+        arm = scene.robot.group("arm")
+        checker = scene.checker(arm)
+        warm_up(checker)
+        for seed in range(12):
+            edges = Edges(checker, 0.2)
+            path = rrt_connect_compiled(
+                edges, START, GOAL[None], arm.lower, arm.upper, Seeds(seed), 1e18, 0.5,
+                finish=Finish(1e18, 20, final_resolution=0.01, max_deviation=0.05,
+                              final_chunk=8),
+            )  # fmt: skip
+            assert path is not None
+            known = edges.stats.final_classes
+            if edges.stats.final_free:
+                assert known is None
+                continue
+            if known is None:  # not checked whole (a thread that did not start in time)
+                continue
+            assert known.any()
+            outs = [
+                PK.validate_path(
+                    path, 0.01, 0.05, True, checker.compiled_inputs, next_epoch(1 << 40), 8, k
+                )
+                for k in (known, NOTHING_CHECKED)
+            ]
+            for got, want in zip(*outs, strict=True):
+                assert np.array_equal(got, want)
+            assert outs[0][-1] != 0
+            compared += 1
+    assert compared >= 3

@@ -101,6 +101,22 @@ def _pause(typingctx):  # type: ignore[no-untyped-def]
     return types.none(), codegen
 
 
+@intrinsic
+def _num_threads(typingctx):  # type: ignore[no-untyped-def]
+    """numba.get_num_threads() in compiled code, from the threading layer's C function bound
+    by name, as numba's parallel loops bind it (its own get_num_threads in compiled code goes
+    through ctypes, which keeps a function out of numba's cache). The symbol is there once
+    numba launched its threads, as for any parallel loop."""
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        fnty = ir.FunctionType(cgutils.intp_t, [])  # as numba declares it
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "get_num_threads")
+        n = builder.trunc(builder.call(fn, []), ir.IntType(32))  # a C int
+        return builder.sext(n, ir.IntType(64))
+
+    return types.int64(), codegen
+
+
 _X86 = platform.machine().lower() in ("x86_64", "amd64", "i686", "x86")
 _PAUSE = "llvm.x86.sse2.pause"  # LLVM's intrinsic (numba's JIT takes no inline assembly)
 
@@ -351,7 +367,8 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
     """What n searches return (:func:`rrt_connect_many`): paths (n, 2·cap, dof) of which path
     i is the first ``lengths[i]`` rows, statuses, stats (n, 5), the work each had done when
     it found its path, whether its path is shortcut already, the states its shortcut
-    checked, and the counters the threads share (SYNC_*, :func:`_final_share`)."""
+    checked, the counters the threads share (SYNC_*), and which of the final check's states
+    the threads found not FREE (:func:`_final_share`)."""
     return (
         np.empty((n, 2 * cap, dof)),
         np.zeros(n, np.int64),
@@ -361,6 +378,7 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
         np.zeros(n, np.bool_),
         np.zeros(n, np.int64),
         np.zeros(SYNC_STARTED + 2 * n, np.int64),
+        np.zeros(FINAL_STATES, np.int8),
     )
 
 
@@ -383,7 +401,7 @@ def _search_one(
     ``final`` = (resolution, max_deviation, chunk, epoch, concurrent): with resolution > 0
     and a shortcut, the search then checks the winner's path with the others
     (:func:`_final_share`)."""
-    paths, lengths, statuses, stats, found, shortened, shortcut_states, sync = out
+    paths, lengths, statuses, stats, found, shortened, shortcut_states, sync, _ = out
     n = seeds.shape[0]
     _atomic_add(sync, SYNC_STARTED + i, 1)
     path, status, st = rrt_connect(
@@ -419,6 +437,9 @@ def _search_one(
 # the final check's states to take, whether one was not FREE, how many were checked FREE, of
 # how many; then per search whether it started, then whether it is done
 SYNC_NEXT, SYNC_BAD, SYNC_CHECKED, SYNC_STATES, SYNC_STARTED = 0, 1, 2, 3, 4
+# the most final-check states whose classes the searches' threads keep for the final check
+# proper (_final_share; a longer path's are checked again there)
+FINAL_STATES = 1 << 14
 # how long a search's thread waits for another search to start on a thread of its own (a
 # sleeping thread wakes in 0.2–0.4 ms here; OpenMP may give fewer threads than asked)
 NOT_STARTED_WAIT = 0.005
@@ -452,9 +473,12 @@ def _final_share(
     """A search's thread, once its search is done, checks the winner's shortcut path with
     the others, as :func:`_final_check` would classify it first (:func:`_final_batch`):
     chunks of ``chunk`` states taken in turn from a shared counter and scanned on the
-    search's own code and scratch slot (:func:`SK.scan`, stamps ``epoch`` + the state's row),
-    until one is not FREE. ``out``'s counters then say whether every state was FREE (the
-    final check's usual answer: the caller then needs no final check of its own).
+    search's own code and scratch slot (:func:`SK.scan`, stamps ``epoch`` + the state's row).
+    ``out``'s counters then say whether every state was FREE (the final check's usual answer:
+    the caller then needs no final check of its own); else ``out``'s last array marks those
+    that were not, by their row in the final check's first batch, and the final check
+    classifies only them again (``known``). Until session 33 the threads stopped at the first
+    state that was not FREE, and the final check classified every state again.
 
     A thread waits for the winner to be known (every search done; pausing) while the
     searches it waits for run on other threads: started, or ``concurrent`` (each search has
@@ -467,10 +491,10 @@ def _final_share(
     0.685–0.702 against 0.732–0.757 ms (three runs), table_under_pick 1.246 against 1.259,
     box 1.047 against 1.072; UR5 table_pick 1.089 against 1.097, box 1.320 against 1.322,
     table_under_pick 1.810 against 1.761: there 24 of 50 searches' paths pass through an
-    obstacle between the search's states, the check stops at the first state that is not
-    FREE, and the final check proper runs after it (scanned in the order of
+    obstacle between the search's states, and the final check proper ran after the threads'
+    check stopped at the first state that was not FREE (scanned in the order of
     :func:`_final_batch`; in order, 1.944 against 1.764)."""
-    paths, lengths, statuses, _, found, shortened, _, sync = out
+    paths, lengths, statuses, _, found, shortened, _, sync, not_free = out
     t0 = _clock()
     while True:
         w = _decided(sync, statuses, found, n)
@@ -489,18 +513,27 @@ def _final_share(
         _pause()
     if statuses[w] != FOUND or not shortened[w]:
         return
-    both = _final_batch(paths[w, : lengths[w]], resolution, max_deviation)
+    both, order = _final_batch(paths[w, : lengths[w]], resolution, max_deviation)
     N = both.shape[0]
     sync[SYNC_STATES] = N  # the same in every thread
+    keep = N <= not_free.shape[0]
     sc = SK.scanner(model, scratch, slot, chunk)
-    while _atomic_add(sync, SYNC_BAD, 0) == 0:
+    while True:
         c0 = _atomic_add(sync, SYNC_NEXT, 1) * chunk
         if c0 >= N:
             break
         c1 = min(N, c0 + chunk)
-        if SK.scan(both[c0:c1], c1 - c0, sc, epoch + c0) < c1 - c0:
+        s = c0
+        while s < c1:
+            k = SK.scan(both[s:c1], c1 - s, sc, epoch + s)
+            if s + k >= c1:
+                break
+            # state s + k is not FREE: noted (by its row in _final_check's first batch), and
+            # the scan goes on after it
             _atomic_add(sync, SYNC_BAD, 1)
-            break
+            if keep:
+                not_free[order[s + k]] = 1
+            s += k + 1
         _atomic_add(sync, SYNC_CHECKED, c1 - c0)
 
 
@@ -644,7 +677,7 @@ def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
     first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_seed, shortcut_deadline,
     shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain, check_ends,
-    final_resolution, max_deviation, final_chunk, concurrent,
+    final_resolution, max_deviation, final_chunk, omp,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A plan's search in one call: the searches of
     :func:`robocell.planning.rrt.rrt_connect_compiled`, then (``shortcut_tries`` > 0) the
@@ -679,9 +712,11 @@ def plan_in(
     has a thread of its own).
 
     Returns the path (the winner's, or search 0's if none found one), the search's status
-    and stats (:func:`rrt_connect`), the states the shortcut checked, and whether that check
+    and stats (:func:`rrt_connect`), the states the shortcut checked, whether that check
     found every state FREE (then the final check's answer is FREE too; else the caller runs
-    the final check proper, :func:`validate_path`, for where and why). With the final check
+    the final check proper, :func:`validate_path`, for where and why), and which states it
+    found not FREE, ``validate_path``'s ``known`` (empty if it did not check the path
+    whole). With the final check
     proper in this call (session 16), on the checker's parallel classifier, this kernel took
     220 s to compile instead of about 130, and the first run, which compiles it in a second
     process (planning.precompile), 250 s instead of 135 (measured); ``SK.scan`` is the
@@ -690,13 +725,18 @@ def plan_in(
     model, scratch = inputs.model, inputs.scratch
     dof = start.shape[0]
     n = seeds.shape[0]
+    # each search has a thread of its own (numba's OpenMP layer gives each iteration of a
+    # loop of at most its thread count one; TBB's may run them one after the other): asked
+    # here, as numba.get_num_threads took 25 µs in Python on a plan's cold caches (measured)
+    concurrent = omp and _num_threads() >= n
     if check_ends:
         ends = np.empty((1 + goals.shape[0], dof))
         ends[0] = start
         ends[1:] = goals
         sc = SK.scanner(model, scratch, first_slot, ends.shape[0])
         if SK.scan(ends, ends.shape[0], sc, epoch + ((n + 1) << 40)) < ends.shape[0]:
-            return np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0, False
+            nothing = np.zeros(0, np.int8)
+            return np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0, False, nothing
     box_lo = np.empty(dof)
     box_hi = np.empty(dof)
     for j in range(dof):
@@ -734,7 +774,7 @@ def plan_in(
                 model, scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for,
                 finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent), out,
             )  # fmt: skip
-    paths, lengths, statuses, stats, found, shortened, shortcut_done, sync = out
+    paths, lengths, statuses, stats, found, shortened, shortcut_done, sync, not_free = out
     best = _best(statuses, found, n)
     path = paths[best, : lengths[best]].copy()
     shortcut_states = shortcut_done[best]
@@ -745,14 +785,13 @@ def plan_in(
             shortcut_tries, budget, first_slot, shortcut_min_gain,
         )  # fmt: skip
         shortcut_states = st[3]
-    # the threads' check covered this path whole, every state FREE (_final_share)
-    free = (
-        shortened[best]
-        and sync[SYNC_STATES] > 0
-        and sync[SYNC_BAD] == 0
-        and sync[SYNC_CHECKED] == sync[SYNC_STATES]
-    )
-    return path, statuses[best], stats[best].copy(), shortcut_states, free
+    # the threads' check covered this path whole (_final_share): every state FREE, or which
+    # were not, for the final check proper
+    whole = shortened[best] and sync[SYNC_STATES] > 0 and sync[SYNC_CHECKED] == sync[SYNC_STATES]
+    free = whole and sync[SYNC_BAD] == 0
+    kept = whole and not free and sync[SYNC_STATES] <= not_free.shape[0]
+    known = not_free[: sync[SYNC_STATES] if kept else 0].copy()
+    return path, statuses[best], stats[best].copy(), shortcut_states, free, known
 
 
 @njit(cache=True)
@@ -850,19 +889,21 @@ def _classify_runs(qs, runs, cls, flags, model, scratch, epoch, chunk):  # type:
 
 
 @njit(cache=True)
-def validate_path(path, resolution, max_deviation, check_segments, inputs, epoch, chunk):  # type: ignore[no-untyped-def]
+def validate_path(path, resolution, max_deviation, check_segments, inputs, epoch, chunk, known):  # type: ignore[no-untyped-def]
     """The planner's final check of ``path`` (K, dof) as it will be executed, in one call
     (:func:`_final_check` on the kernel's threads). Before, the same steps in Python between
     two kernel calls cost 250–300 µs of a 600 µs check in a plan (cold caches after the
     search; UR5 table_pick, measured)."""
     return _final_check(
         path, resolution, max_deviation, check_segments, inputs.model, inputs.scratch, epoch,
-        chunk,
+        chunk, known,
     )  # fmt: skip
 
 
 @njit(cache=True)
-def _final_check(path, resolution, max_deviation, check_segments, model, scratch, epoch, chunk):  # type: ignore[no-untyped-def]
+def _final_check(
+    path, resolution, max_deviation, check_segments, model, scratch, epoch, chunk, known
+):  # type: ignore[no-untyped-def]  # fmt: skip
     """The final check of ``path`` (K, dof) as it will be executed: its straight segments'
     states at ``resolution`` (if ``check_segments``) and the states of its corners rounded
     within ``max_deviation`` (if > 0), classified by the kernel with the unsure pairs flagged
@@ -895,7 +936,7 @@ def _final_check(path, resolution, max_deviation, check_segments, model, scratch
     first[off.shape[0], 1] = S + A
     cls_all = np.full(S + A, SK.UNCHECKED, np.int8)
     flags_all = np.zeros((S + A, P), np.bool_)
-    n_first = _classify_runs(both, first, cls_all, flags_all, model, scratch, epoch, chunk)
+    n_first = _classify_first(both, first, cls_all, flags_all, model, scratch, epoch, chunk, known)
     cls, flags = cls_all[:S], flags_all[:S]
     arc_cls, arc_flags = cls_all[S:], flags_all[S:]
     free = True
@@ -924,6 +965,32 @@ def _final_check(path, resolution, max_deviation, check_segments, model, scratch
     # what the caller need not look at: 0 when every state classified is FREE
     summary = (0 if free else 1) + (0 if arcs_free else 2)
     return states, segment, cls, flags, arcs, arc_cls, arc_flags, summary
+
+
+@njit(cache=True)
+def _classify_first(both, first, cls, flags, model, scratch, epoch, chunk, known):  # type: ignore[no-untyped-def]
+    """:func:`_final_check`'s first batch (the states of ``both`` in the runs ``first``) into
+    ``cls`` and ``flags``: classified, or where the searches' threads checked them already
+    (``known``, one entry per state of the batch, in its order: 0 FREE, 1 not; empty if
+    not), only the states they found not FREE, for their class and unsure pairs. Returns
+    how many states it classified."""
+    total = 0
+    for r in range(first.shape[0]):
+        total += first[r, 1] - first[r, 0]
+    if known.shape[0] != total:
+        return _classify_runs(both, first, cls, flags, model, scratch, epoch, chunk)
+    again = np.empty((total, 2), np.int64)
+    m = 0
+    i = 0
+    for r in range(first.shape[0]):
+        for s in range(first[r, 0], first[r, 1]):
+            if known[i] == 0:
+                cls[s] = SK.FREE
+            else:
+                again[m, 0], again[m, 1] = s, s + 1
+                m += 1
+            i += 1
+    return _classify_runs(both, again[:m].copy(), cls, flags, model, scratch, epoch, chunk)
 
 
 @njit(cache=True)
@@ -989,20 +1056,25 @@ def _final_states(path, resolution, max_deviation, check_segments):  # type: ign
 def _final_batch(path, resolution, max_deviation):  # type: ignore[no-untyped-def]
     """The states :func:`_final_check` classifies first, in one array (all of them FREE:
     its answer is FREE): the segment states off the corners' stretches and the arcs',
-    every 8th first, then the 4th, 2nd and 1st between them, so that where the path
-    passes through an obstacle (most such stretches span several states) a scan in this
-    order meets it early."""
+    every 8th first, then the 4th, 2nd and 1st between them; and the row of each in
+    :func:`_final_check`'s order. Until session 33 a scan stopped at the first state that
+    was not FREE, and in this order it met an obstacle early (most stretches of a path
+    through one span several states); scanned whole, in chunks of 32 on one thread, the
+    states of 30 Panda plans' paths took 0.77 µs each against 0.79 in their order
+    (table_pick; table_under_pick 0.75 against 0.78; session 33, both alternating)."""
     states, _, arcs, off, _ = _final_states(path, resolution, max_deviation, True)
     ordered = _gathered(states, off, arcs.shape[0])
     n = ordered.shape[0]
     ordered[n - arcs.shape[0] :] = arcs
     both = np.empty_like(ordered)
+    order = np.empty(n, np.int64)
     row = 0
     for first in (0, 4, 2, 6, 1, 5, 3, 7):
         for i in range(first, n, 8):
             both[row] = ordered[i]
+            order[row] = i
             row += 1
-    return both
+    return both, order
 
 
 @njit(cache=True)
@@ -1091,11 +1163,14 @@ def repair_in(
                 mended = True
                 break
         if not mended:
-            checked = _final_check(path[:2], resolution, 0.0, False, model, scratch, epoch, chunk)
+            checked = _final_check(
+                path[:2], resolution, 0.0, False, model, scratch, epoch, chunk, np.zeros(0, np.int8)
+            )  # fmt: skip
             return False, path, k, used, checked
         h += 1
     new = out[:m].copy()
     checked = _final_check(
-        new, resolution, max_deviation, False, model, scratch, epoch + used, chunk
+        new, resolution, max_deviation, False, model, scratch, epoch + used, chunk,
+        np.zeros(0, np.int8),
     )  # fmt: skip
     return True, new, -1, used, checked

@@ -27,6 +27,7 @@ from robocell.planning.request import (
     PositionGoal,
 )
 from robocell.planning.rrt import (
+    NOTHING_CHECKED,
     Edges,
     Finish,
     Rng,
@@ -237,7 +238,9 @@ class Planner:
                 ok, dev, bad = True, cfg.max_deviation, _NONE
                 hits: dict[int, Hit] = {}
             else:
-                ok, dev, bad, hits = self._validate(checker, path, chunk=chunk)
+                # the states the searches' threads checked are not checked again
+                known = edges.stats.final_classes if shortened else None
+                ok, dev, bad, hits = self._validate(checker, path, chunk=chunk, known=known)
             if not ok and native:
                 # repair the segments that collide between checked states, each by a detour
                 # or a search between its ends at the validation resolution, before
@@ -675,6 +678,7 @@ class Planner:
         path: NDArray[np.float64],
         segments_checked: bool = False,
         chunk: int = FINAL_CHUNK,
+        known: NDArray[np.int8] | None = None,
     ) -> tuple[bool, float, NDArray[np.float64], dict[int, Hit]]:
         """Check the path as it will be executed at the validation resolution: (valid, corner
         deviation to execute it with, the first colliding state or an empty array, where each
@@ -687,7 +691,9 @@ class Planner:
         ``segments_checked``: the segments already were, at this resolution, as a repair
         does; only the arcs are checked. Where a segment collides is known whole, for a
         repair (``_kernels._final_check``). ``chunk``: states per task on the kernel's
-        threads (at most one chunk of states is checked in the calling thread)."""
+        threads (at most one chunk of states is checked in the calling thread). ``known``:
+        which of the states it classifies first the searches' threads found not FREE, for
+        this path (``EdgeStats.final_classes``): only those are classified again."""
 
         checked = PK.validate_path(
             np.ascontiguousarray(path, dtype=float),
@@ -697,6 +703,7 @@ class Planner:
             checker.compiled_inputs,
             next_epoch(1 << 40),
             chunk,
+            NOTHING_CHECKED if known is None else known,
         )
         return self._judge(checker, checked, segments_checked)
 

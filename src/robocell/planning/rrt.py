@@ -89,6 +89,9 @@ class EdgeStats:
     # searches' threads as the final check classifies it first: every state FREE
     # (Finish.final_resolution)
     final_free: bool = False
+    # else, when they checked all of it: which of the states the final check classifies
+    # first they found not FREE (0 FREE, 1 not), for it (_kernels.validate_path's ``known``)
+    final_classes: NDArray[np.int8] | None = None
 
 
 class Edges:
@@ -311,16 +314,17 @@ def rrt_connect_compiled(
     with _SEARCH_LOCK:
         if side_by_side is None:
             side_by_side = searches > 1 and _threadsafe_layer()
-        path, status, st, shortcut_states, free = PK.plan_in(
+        path, status, st, shortcut_states, free, known = PK.plan_in(
             start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
             next_epoch((searches + 3) << 40), cap, first_slot, box_margin, box_share,
             whole_for, side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
             finish.min_states, float(finish.min_gain), check_ends,
             float(finish.final_resolution), float(finish.max_deviation),
-            int(finish.final_chunk), _concurrent(searches),
+            int(finish.final_chunk), _omp(),
         )  # fmt: skip
     edges.stats.blocked_ends = status == PK.BLOCKED
     edges.stats.final_free = bool(free)
+    edges.stats.final_classes = known if len(known) else None
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
     edges.stats.states += int(st[3]) + int(shortcut_states)
@@ -346,19 +350,19 @@ def _threadsafe_layer() -> bool:
 _LAYER: list[bool] = []  # whether numba's threading layer is threadsafe, once it is chosen
 
 
-def _concurrent(searches: int) -> bool:
-    """Whether each of ``searches`` searches side by side gets a thread of its own at once:
-    numba's OpenMP layer gives each iteration of a loop of at most its thread count a
-    thread (TBB's may run them one after the other), so a search's thread may wait for
-    another's result (_kernels._final_share)."""
-    import numba
-
+def _omp() -> bool:
+    """Whether numba's threading layer is OpenMP's, which gives each iteration of a loop of
+    at most its thread count a thread (TBB's may run them one after the other): then a
+    search's thread may wait for another's result (_kernels._final_share), if there are as
+    many threads as searches (_kernels.plan_in asks)."""
     if not _OMP:
+        import numba
+
         try:
             _OMP.append(numba.threading_layer() == "omp")  # chosen once per process
         except ValueError:  # no parallel work has run yet: the layer is not chosen
             return False
-    return _OMP[0] and numba.get_num_threads() >= searches
+    return _OMP[0]
 
 
 _OMP: list[bool] = []  # whether numba's threading layer is OpenMP, once it is chosen
@@ -414,7 +418,7 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
         PK.detour_in(q, q, q, q - 1, q + 1, np.zeros(1), 0, 0.05, inputs, next_epoch(1 << 20))
         PK._clock()  # through numba's object mode (off Linux), 50 ms on its first call
         corner = np.array([q, q + 0.1, q + 0.2 * (np.arange(q.shape[0]) % 2)])  # final check
-        PK.validate_path(corner, 0.01, 0.05, True, inputs, next_epoch(1 << 20), 64)
+        PK.validate_path(corner, 0.01, 0.05, True, inputs, next_epoch(1 << 20), 64, NOTHING_CHECKED)
         # a repair's detours and corners (Planner._mend), and where segments collide
         PK.repair_in(
             corner, np.zeros(1, np.int64), np.array([corner[:3]]), q - 1, q + 1, np.zeros(1),
@@ -433,6 +437,9 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1, 0.0)
     _WARM[0] = not searches_only
+
+
+NOTHING_CHECKED = np.zeros(0, np.int8)  # validate_path's ``known``: no state checked before
 
 
 def _extend(
