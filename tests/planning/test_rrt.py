@@ -470,14 +470,16 @@ def test_the_searches_threads_check_the_winners_path_as_the_final_check_does(wal
 def test_the_final_check_takes_the_states_the_searches_threads_found_not_free(walled, irb120):
     """A path the searches' threads found not FREE throughout (past a wall the search's
     coarse steps skip over, past a mesh that leaves states unsure): the threads checked every
-    state and noted which were not FREE, and the final check given those classifies only
-    them again, with the same answers as the final check from scratch (classes, unsure
-    pairs, summary)."""
+    state and noted which were not FREE, then those of the segments' stretches at the
+    corners, which the final check classifies when one is not; the final check given those
+    classifies only them again, with the same answers as the final check from scratch
+    (classes, unsure pairs, summary)."""
     from robocell.planning import _kernels as PK
     from robocell.scene.checker import next_epoch
     from tests.conftest import past_a_mesh
 
     compared = 0
+    stretches = 0
     for scene in (walled, past_a_mesh(irb120)):
         arm = scene.robot.group("arm")
         checker = scene.checker(arm)
@@ -497,6 +499,9 @@ def test_the_final_check_takes_the_states_the_searches_threads_found_not_free(wa
             if known is None:  # not checked whole (a thread that did not start in time)
                 continue
             assert known.any()
+            first, _, later = PK._final_batch(path, 0.01, 0.05)
+            assert len(known) == len(first) + len(later)
+            stretches += len(later) > 0
             outs = [
                 PK.validate_path(
                     path, 0.01, 0.05, True, checker.compiled_inputs, next_epoch(1 << 40), 8, k
@@ -507,4 +512,4 @@ def test_the_final_check_takes_the_states_the_searches_threads_found_not_free(wa
                 assert np.array_equal(got, want)
             assert outs[0][-1] != 0
             compared += 1
-    assert compared >= 3
+    assert compared >= 3 and stretches >= 1

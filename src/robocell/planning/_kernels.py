@@ -434,9 +434,11 @@ def _search_one(
 
 
 # the counters the searches' threads share (_search_outputs' last array): the next chunk of
-# the final check's states to take, whether one was not FREE, how many were checked FREE, of
-# how many; then per search whether it started, then whether it is done
-SYNC_NEXT, SYNC_BAD, SYNC_CHECKED, SYNC_STATES, SYNC_STARTED = 0, 1, 2, 3, 4
+# the final check's first states to take, how many were not FREE, how many were checked, of
+# how many; the same for the states of the corners' stretches (checked after them when one
+# was not FREE); then per search whether it started, then whether it is done
+SYNC_NEXT, SYNC_BAD, SYNC_CHECKED, SYNC_STATES = 0, 1, 2, 3
+SYNC_LATER_NEXT, SYNC_LATER_CHECKED, SYNC_LATER_STATES, SYNC_STARTED = 4, 5, 6, 7
 # the most final-check states whose classes the searches' threads keep for the final check
 # proper (_final_share; a longer path's are checked again there)
 FINAL_STATES = 1 << 14
@@ -513,28 +515,46 @@ def _final_share(
         _pause()
     if statuses[w] != FOUND or not shortened[w]:
         return
-    both, order = _final_batch(paths[w, : lengths[w]], resolution, max_deviation)
-    N = both.shape[0]
+    both, order, later = _final_batch(paths[w, : lengths[w]], resolution, max_deviation)
+    N, L = both.shape[0], later.shape[0]
     sync[SYNC_STATES] = N  # the same in every thread
-    keep = N <= not_free.shape[0]
+    sync[SYNC_LATER_STATES] = L
+    keep = N + L <= not_free.shape[0]
     sc = SK.scanner(model, scratch, slot, chunk)
+    _scan_shared(both, order, 0, sync, SYNC_NEXT, SYNC_CHECKED, chunk, sc, epoch, not_free, keep)
+    if _atomic_add(sync, SYNC_BAD, 0) > 0:
+        # the final check classifies the corners' stretches of the segments too (where each
+        # segment collides, whether the corners may stay sharp): the thread that found a
+        # state not FREE gets here, and any other still checking
+        _scan_shared(
+            later, np.arange(L), N, sync, SYNC_LATER_NEXT, SYNC_LATER_CHECKED, chunk, sc,
+            epoch + N, not_free, keep,
+        )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _scan_shared(qs, order, base, sync, counter, checked, chunk, sc, epoch, not_free, keep):  # type: ignore[no-untyped-def]
+    """:func:`_final_share`'s scan of ``qs``: chunks of ``chunk`` states taken in turn from
+    the shared counter ``sync[counter]``, each scanned whole (stamps ``epoch`` + the row):
+    the states not FREE counted in ``sync[SYNC_BAD]`` and, if ``keep``, marked in
+    ``not_free`` at ``base + order[row]``; the states checked counted in ``sync[checked]``."""
+    N = qs.shape[0]
     while True:
-        c0 = _atomic_add(sync, SYNC_NEXT, 1) * chunk
+        c0 = _atomic_add(sync, counter, 1) * chunk
         if c0 >= N:
             break
         c1 = min(N, c0 + chunk)
         s = c0
         while s < c1:
-            k = SK.scan(both[s:c1], c1 - s, sc, epoch + s)
+            k = SK.scan(qs[s:c1], c1 - s, sc, epoch + s)
             if s + k >= c1:
                 break
-            # state s + k is not FREE: noted (by its row in _final_check's first batch), and
-            # the scan goes on after it
+            # state s + k is not FREE: noted, and the scan goes on after it
             _atomic_add(sync, SYNC_BAD, 1)
             if keep:
-                not_free[order[s + k]] = 1
+                not_free[base + order[s + k]] = 1
             s += k + 1
-        _atomic_add(sync, SYNC_CHECKED, c1 - c0)
+        _atomic_add(sync, checked, c1 - c0)
 
 
 @njit(cache=True, inline="always")
@@ -789,8 +809,11 @@ def plan_in(
     # were not, for the final check proper
     whole = shortened[best] and sync[SYNC_STATES] > 0 and sync[SYNC_CHECKED] == sync[SYNC_STATES]
     free = whole and sync[SYNC_BAD] == 0
-    kept = whole and not free and sync[SYNC_STATES] <= not_free.shape[0]
-    known = not_free[: sync[SYNC_STATES] if kept else 0].copy()
+    N, L = sync[SYNC_STATES], sync[SYNC_LATER_STATES]
+    kept = whole and not free and N + L <= not_free.shape[0]
+    if kept and sync[SYNC_LATER_CHECKED] == L:
+        N += L  # the corners' stretches too
+    known = not_free[: N if kept else 0].copy()
     return path, statuses[best], stats[best].copy(), shortcut_states, free, known
 
 
@@ -919,7 +942,12 @@ def _final_check(
     batches, one after the other, took 179 against 168 µs on the Panda's table_pick paths
     checked over and over, as long on table_under_pick's, and 0.39–0.41 against 0.34–0.36 ms
     in table_under_pick plans that follow an ``ompl`` plan (session 25). They are dropped when
-    a segment state is a HIT, as the corners are then not rounded."""
+    a segment state is a HIT, as the corners are then not rounded.
+
+    ``known``: the states the searches' threads checked already, and which they found not
+    FREE (:func:`_classify_first`): only those are classified again. In the Panda's table
+    sets' plans that needed a final check proper (a quarter to a third), that took its median
+    from 337–391 to 148–150 µs with the first batch known (session 33)."""
     states, segment, arcs, off, on = _final_states(path, resolution, max_deviation, check_segments)
     dof = path.shape[1]
     P = model[25].shape[0] + model[26].shape[0]
@@ -936,7 +964,9 @@ def _final_check(
     first[off.shape[0], 1] = S + A
     cls_all = np.full(S + A, SK.UNCHECKED, np.int8)
     flags_all = np.zeros((S + A, P), np.bool_)
-    n_first = _classify_first(both, first, cls_all, flags_all, model, scratch, epoch, chunk, known)
+    n_first, on_done = _classify_first(
+        both, first, on, cls_all, flags_all, model, scratch, epoch, chunk, known
+    )  # fmt: skip
     cls, flags = cls_all[:S], flags_all[:S]
     arc_cls, arc_flags = cls_all[S:], flags_all[S:]
     free = True
@@ -949,7 +979,7 @@ def _final_check(
         if arc_cls[i] != SK.FREE:
             arcs_free = False
             break
-    if not (free and arcs_free):
+    if not (free and arcs_free) and not on_done:
         # where each segment collides, known whole (for a repair), or whether the corners
         # may stay sharp
         _classify_runs(both, on, cls_all, flags_all, model, scratch, epoch + n_first, chunk)
@@ -968,29 +998,38 @@ def _final_check(
 
 
 @njit(cache=True)
-def _classify_first(both, first, cls, flags, model, scratch, epoch, chunk, known):  # type: ignore[no-untyped-def]
+def _classify_first(both, first, on, cls, flags, model, scratch, epoch, chunk, known):  # type: ignore[no-untyped-def]
     """:func:`_final_check`'s first batch (the states of ``both`` in the runs ``first``) into
-    ``cls`` and ``flags``: classified, or where the searches' threads checked them already
-    (``known``, one entry per state of the batch, in its order: 0 FREE, 1 not; empty if
-    not), only the states they found not FREE, for their class and unsure pairs. Returns
-    how many states it classified."""
-    total = 0
+    ``cls`` and ``flags``, and the states of the runs ``on`` where known. ``known``: which
+    states the searches' threads found not FREE (1; 0: FREE), one entry per state of the
+    first batch in its order, then, if they checked them, per state of ``on``'s runs
+    (empty: none checked). Those are classified again, for their class and unsure pairs;
+    without ``known``, the whole first batch is classified. Returns how many states it
+    classified, and whether ``on``'s states are classified too."""
+    n_first = 0
     for r in range(first.shape[0]):
-        total += first[r, 1] - first[r, 0]
-    if known.shape[0] != total:
-        return _classify_runs(both, first, cls, flags, model, scratch, epoch, chunk)
-    again = np.empty((total, 2), np.int64)
+        n_first += first[r, 1] - first[r, 0]
+    n_on = 0
+    for r in range(on.shape[0]):
+        n_on += on[r, 1] - on[r, 0]
+    if known.shape[0] != n_first and known.shape[0] != n_first + n_on:
+        return _classify_runs(both, first, cls, flags, model, scratch, epoch, chunk), False
+    parts = 2 if known.shape[0] == n_first + n_on else 1
+    again = np.empty((known.shape[0], 2), np.int64)
     m = 0
     i = 0
-    for r in range(first.shape[0]):
-        for s in range(first[r, 0], first[r, 1]):
-            if known[i] == 0:
-                cls[s] = SK.FREE
-            else:
-                again[m, 0], again[m, 1] = s, s + 1
-                m += 1
-            i += 1
-    return _classify_runs(both, again[:m].copy(), cls, flags, model, scratch, epoch, chunk)
+    for p in range(parts):
+        part = first if p == 0 else on
+        for r in range(part.shape[0]):
+            for s in range(part[r, 0], part[r, 1]):
+                if known[i] == 0:
+                    cls[s] = SK.FREE
+                else:
+                    again[m, 0], again[m, 1] = s, s + 1
+                    m += 1
+                i += 1
+    n = _classify_runs(both, again[:m].copy(), cls, flags, model, scratch, epoch, chunk)
+    return n, parts == 2
 
 
 @njit(cache=True)
@@ -1056,13 +1095,15 @@ def _final_states(path, resolution, max_deviation, check_segments):  # type: ign
 def _final_batch(path, resolution, max_deviation):  # type: ignore[no-untyped-def]
     """The states :func:`_final_check` classifies first, in one array (all of them FREE:
     its answer is FREE): the segment states off the corners' stretches and the arcs',
-    every 8th first, then the 4th, 2nd and 1st between them; and the row of each in
-    :func:`_final_check`'s order. Until session 33 a scan stopped at the first state that
-    was not FREE, and in this order it met an obstacle early (most stretches of a path
-    through one span several states); scanned whole, in chunks of 32 on one thread, the
-    states of 30 Panda plans' paths took 0.77 µs each against 0.79 in their order
-    (table_pick; table_under_pick 0.75 against 0.78; session 33, both alternating)."""
-    states, _, arcs, off, _ = _final_states(path, resolution, max_deviation, True)
+    every 8th first, then the 4th, 2nd and 1st between them; the row of each in
+    :func:`_final_check`'s order; and the states it classifies when one of those is not
+    FREE (the segments' stretches at the corners), in its order. Until session 33 a scan
+    stopped at the first state that was not FREE, and in this order it met an obstacle
+    early (most stretches of a path through one span several states); scanned whole, in
+    chunks of 32 on one thread, the states of 30 Panda plans' paths took 0.77 µs each
+    against 0.79 in their order (table_pick; table_under_pick 0.75 against 0.78; session
+    33, both alternating)."""
+    states, _, arcs, off, on = _final_states(path, resolution, max_deviation, True)
     ordered = _gathered(states, off, arcs.shape[0])
     n = ordered.shape[0]
     ordered[n - arcs.shape[0] :] = arcs
@@ -1074,7 +1115,7 @@ def _final_batch(path, resolution, max_deviation):  # type: ignore[no-untyped-de
             both[row] = ordered[i]
             order[row] = i
             row += 1
-    return both, order
+    return both, order, _gathered(states, on, 0)
 
 
 @njit(cache=True)
