@@ -946,8 +946,11 @@ def _final_check(
 
     ``known``: the states the searches' threads checked already, and which they found not
     FREE (:func:`_classify_first`): only those are classified again. In the Panda's table
-    sets' plans that needed a final check proper (a quarter to a third), that took its median
-    from 337–391 to 148–150 µs with the first batch known (session 33)."""
+    sets' plans that need a final check proper (a quarter to a third of them), that took its
+    median from 270–369 to 148–150 µs with the first batch known, and to 64–94 µs with the
+    corners' stretches known too; those plans' median from 987–1087 to 886–987 µs on
+    table_pick, 1701–1732 to 1513–1645 on table_under_pick (session 33, each plan after an
+    ``ompl`` plan, three runs of each version alternating)."""
     states, segment, arcs, off, on = _final_states(path, resolution, max_deviation, check_segments)
     dof = path.shape[1]
     P = model[25].shape[0] + model[26].shape[0]
