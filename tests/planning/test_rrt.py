@@ -492,7 +492,7 @@ def test_the_final_check_takes_the_states_the_searches_threads_found_not_free(wa
                               final_chunk=8),
             )  # fmt: skip
             assert path is not None
-            known = edges.stats.final_classes
+            known = edges.stats.final_not_free
             if edges.stats.final_free:
                 assert known is None
                 continue

@@ -239,7 +239,7 @@ class Planner:
                 hits: dict[int, Hit] = {}
             else:
                 # the states the searches' threads checked are not checked again
-                known = edges.stats.final_classes if shortened else None
+                known = edges.stats.final_not_free if shortened else None
                 ok, dev, bad, hits = self._validate(checker, path, chunk=chunk, known=known)
             if not ok and native:
                 # repair the segments that collide between checked states, each by a detour
@@ -693,7 +693,7 @@ class Planner:
         repair (``_kernels._final_check``). ``chunk``: states per task on the kernel's
         threads (at most one chunk of states is checked in the calling thread). ``known``:
         which of the states it classifies first the searches' threads found not FREE, for
-        this path (``EdgeStats.final_classes``): only those are classified again."""
+        this path (``EdgeStats.final_not_free``): only those are classified again."""
 
         checked = PK.validate_path(
             np.ascontiguousarray(path, dtype=float),

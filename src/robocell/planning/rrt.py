@@ -90,8 +90,9 @@ class EdgeStats:
     # (Finish.final_resolution)
     final_free: bool = False
     # else, when they checked all of it: which of the states the final check classifies
-    # first they found not FREE (0 FREE, 1 not), for it (_kernels.validate_path's ``known``)
-    final_classes: NDArray[np.int8] | None = None
+    # first (then, when they checked them too, of the segments' stretches at the corners)
+    # they found not FREE, 1 (0: FREE), for it (_kernels.validate_path's ``known``)
+    final_not_free: NDArray[np.int8] | None = None
 
 
 class Edges:
@@ -295,7 +296,8 @@ def rrt_connect_compiled(
     :func:`shortcut_compiled` does it with these settings; with ``finish.final_resolution``
     and side by side, the searches' threads then check it as the final check classifies it
     first (``_kernels._final_share``): ``edges.stats.final_free`` when every state is FREE,
-    else the planner checks it (``_kernels.validate_path``).
+    else the planner checks it (``_kernels.validate_path``), classifying again only the
+    states they found not FREE (``edges.stats.final_not_free``).
 
     ``check_ends``: the start and the goals are classified first, in the same call; if one
     is not FREE (in collision, or unsure near contact), nothing is searched, the result is
@@ -324,7 +326,7 @@ def rrt_connect_compiled(
         )  # fmt: skip
     edges.stats.blocked_ends = status == PK.BLOCKED
     edges.stats.final_free = bool(free)
-    edges.stats.final_classes = known if len(known) else None
+    edges.stats.final_not_free = known if len(known) else None
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
     edges.stats.states += int(st[3]) + int(shortcut_states)
