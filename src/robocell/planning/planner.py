@@ -238,8 +238,9 @@ class Planner:
                 ok, dev, bad = True, cfg.max_deviation, _NONE
                 hits: dict[int, Hit] = {}
             else:
-                # the states the searches' threads checked are not checked again
-                known = edges.stats.final_not_free if shortened else None
+                # the states the searches' threads checked are not checked again (None when
+                # they did not check this path: then it was not shortened in their call)
+                known = edges.stats.final_not_free
                 ok, dev, bad, hits = self._validate(checker, path, chunk=chunk, known=known)
             if not ok and native:
                 # repair the segments that collide between checked states, each by a detour
