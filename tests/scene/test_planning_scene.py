@@ -683,3 +683,73 @@ def test_checks_are_the_same_without_the_world_grid(mbm_panda):
     checker._model = tuple(model)
     assert np.array_equal(checker.check(qs), with_grid)
     assert 0.1 < with_grid.mean() < 0.9
+
+
+@pytest.mark.parametrize(
+    ("robot", "group"), [("mbm_panda", "panda_arm"), ("mbm_ur5", "manipulator"), ("irb120", "arm")]
+)
+def test_every_moving_body_stays_in_its_reach_ball(robot, group, request):
+    """The ball a body is said to stay in (``_reach``: centred on the first group joint's
+    origin on its chain) holds the body's bounding sphere at any configuration, limits or not;
+    bodies the group does not move have none."""
+    from robocell.kinematics.fk import link_poses
+    from robocell.scene.checker import _reach
+
+    model = request.getfixturevalue(robot)
+    g = model.group(group)
+    checker = PlanningScene(model).checker(g)
+    q0 = checker.base_positions
+    balls = [_reach(model, g, b, link_poses(model, q0)) for b in checker.bodies]
+    assert [ball is not None for ball in balls] == [b.moving for b in checker.bodies]
+    rng = np.random.default_rng(1)
+    qs = np.vstack([g.random(rng, 500), rng.uniform(-2 * np.pi, 2 * np.pi, (500, g.dof))])
+    worst = 0.0
+    for q in qs:
+        full = q0.copy()
+        full[g.indices] = q
+        T = link_poses(model, full)
+        for b, ball in zip(checker.bodies, balls, strict=True):
+            if ball is None:
+                continue
+            T_body = T[model.link_index(b.link)] @ b.T_link_body
+            c = T_body[:3, :3] @ b.spheres.nodes[0, :3] + T_body[:3, 3]
+            worst = max(worst, np.linalg.norm(c - ball[0]) + b.spheres.nodes[0, 3] - ball[1])
+    assert worst <= 1e-9
+
+
+def test_obstacles_out_of_a_bodys_reach_are_not_paired_with_it(mbm_panda, monkeypatch):
+    """A world pair whose obstacle no configuration brings the body to is left out (the
+    Panda's first links against a table and a shelf beside it), and the checker answers as
+    the one that keeps every pair, on random states and within 0.1 mrad of contact (where
+    the kernel may call a state coal finds 0.1 mrad clear in collision, never the reverse)."""
+    import robocell.scene.checker as C
+
+    group = mbm_panda.group("panda_arm")
+    scene = PlanningScene(mbm_panda)
+    scene.add_box("table", Pose((0.6, 0.0, 0.1)), (0.5, 0.8, 0.2))
+    scene.add_box("shelf", Pose((0.0, 0.75, 0.5)), (0.6, 0.2, 1.0))
+    scene.add_cylinder("can", Pose((0.55, 0.2, 0.3)), 0.04, 0.2)
+    checker = scene.checker(group)
+    names = [b.name for b in checker.bodies]
+    paired = {(names[b], checker.obstacles[o].object_id) for b, o in checker.world_pairs}
+    assert ("panda_link1", "table") not in paired and ("panda_link2", "table") not in paired
+    assert ("panda_link4", "shelf") not in paired  # 0.65 m from the shoulder, 0.60 of reach
+    assert ("panda_hand", "table") in paired and ("panda_link5", "shelf") in paired
+    monkeypatch.setattr(C, "_reach", lambda *args: None)
+    every = C.CollisionChecker(scene, group)
+    assert len(every.world_pairs) > len(checker.world_pairs)
+    rng = np.random.default_rng(5)
+    qs = group.random(rng, 3000)
+    exact = every.check_exact(qs)
+    free, hit = qs[~exact][:30], qs[exact][:30]
+    near = []
+    for a, b in zip(free, hit, strict=True):
+        for _ in range(14):
+            m = (a + b) / 2
+            a, b = (a, m) if every.check_exact(m[None])[0] else (m, b)
+        near += [a, b]
+    qs = np.vstack([qs, near])
+    answers = checker.check(qs)
+    assert np.array_equal(answers, every.check(qs))
+    assert not np.any(~answers & every.check_exact(qs))  # never free where coal sees contact
+    assert 0.1 < answers.mean() < 0.9

@@ -32,7 +32,7 @@ from robocell.geometry.pose import invert_transform
 from robocell.geometry.shapes import Box, Cylinder, Mesh, Shape, Sphere, padded
 from robocell.kinematics._kernels import fk_into
 from robocell.kinematics.fk import link_poses, tree_args
-from robocell.robot.model import JointGroup, RobotModel
+from robocell.robot.model import PRISMATIC, JointGroup, RobotModel
 from robocell.scene import _kernels as K
 from robocell.scene.objects import AttachedObject
 from robocell.scene.pair_tables import Chain, Members, PairTable, pair_table, table_chain
@@ -198,6 +198,56 @@ def _bounding_sphere(o: Obstacle) -> NDArray[np.float64]:
     else:
         r = float(d[0])
     return np.array([*o.T_scene_shape[:3, 3], r * (1 + 1e-9) + 1e-12])
+
+
+def _reach(
+    robot: RobotModel, group: JointGroup, body: Body, T_links: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], float] | None:
+    """A ball that holds ``body`` at every configuration of ``group`` (the other joints as in
+    ``T_links``, the links' poses in the root frame): centred on the origin of the first of
+    the group's joints on the body's chain, which lies on that joint's axis and so stays put;
+    its radius the distances between the successive link origins from there on (which turning
+    a joint keeps), plus how far the body's bounding sphere reaches from its link's origin.
+    None when no joint of the group moves the body, or a prismatic one does (its reach is
+    bounded only by limits that a checked state need not keep)."""
+    tree = robot.tree
+    moving = set(group.indices.tolist())
+    by_child = {int(c): j for j, c in enumerate(tree.child_link)}
+    chain: list[int] = []
+    link = robot.link_index(body.link)
+    while link in by_child:
+        chain.append(by_child[link])
+        link = int(tree.parent_link[by_child[link]])
+    chain.reverse()
+    driven = [int(tree.var[j]) in moving for j in chain]
+    if not any(driven) or not len(body.spheres.nodes):
+        return None
+    if any(d and tree.type[j] == PRISMATIC for d, j in zip(driven, chain, strict=True)):
+        return None
+    first = driven.index(True)
+    origins = T_links[:, :3, 3]
+    radius = sum(
+        float(np.linalg.norm(origins[tree.child_link[j]] - origins[tree.parent_link[j]]))
+        for j in chain[first + 1 :]
+    )
+    c, r = body.spheres.nodes[0, :3], float(body.spheres.nodes[0, 3])
+    radius += float(np.linalg.norm(body.T_link_body[:3, :3] @ c + body.T_link_body[:3, 3])) + r
+    return T_links[tree.child_link[chain[first]], :3, 3].copy(), radius
+
+
+def _point_distance(p: NDArray[np.float64], o: Obstacle) -> float:
+    """Distance from point p (root frame) to obstacle primitive o (0 inside)."""
+    local = o.T_scene_shape[:3, :3].T @ (p - o.T_scene_shape[:3, 3])
+    d = o.dims
+    if o.kind == K.OBS_BOX:
+        return float(np.linalg.norm(np.maximum(np.abs(local) - d, 0.0)))
+    if o.kind == K.OBS_CYLINDER:
+        radial = max(float(np.hypot(local[0], local[1])) - d[0], 0.0)
+        return float(np.hypot(radial, max(abs(local[2]) - d[1], 0.0)))
+    return max(float(np.linalg.norm(local)) - d[0], 0.0)
+
+
+REACH_MARGIN = 1e-3  # [m] a pair is left out only if its obstacle is this much beyond reach
 
 
 def _world_runs(
@@ -934,10 +984,14 @@ class CollisionChecker:
 
         self.world_pairs: list[tuple[int, int]] = []
         self.static_world_pairs: list[tuple[int, int]] = []
+        T_links = link_poses(robot, self.base_positions)
         for bi, b in enumerate(bodies):
+            reach = _reach(robot, group, b, T_links) if b.moving else None
             for oi, o in enumerate(obstacles):
                 if acm.allowed(b.name, o.object_id):
                     continue
+                if reach is not None and _point_distance(reach[0], o) > reach[1] + REACH_MARGIN:
+                    continue  # the body cannot reach the obstacle, whatever the joints do
                 (self.world_pairs if b.moving else self.static_world_pairs).append((bi, oi))
         self.self_pairs: list[tuple[int, int]] = []
         self.static_self_pairs: list[tuple[int, int]] = []
@@ -1020,8 +1074,14 @@ class CollisionChecker:
             if b in member_of:
                 w_by_key.setdefault((o, member_of[b]), []).append((k, b))
         self._world_groups: list[_PairGroup] = []
-        for (o, _), km in w_by_key.items():
-            members = tuple(sorted({m for _, m in km}))[:62]
+        # one union per cluster, of its members with any world pair, however few of them
+        # have a pair with each obstacle (the ACM, or reach, leaves some out): the union's
+        # sphere clear of the whole world then clears all its groups at once
+        in_world: dict[int, set[int]] = {}
+        for (_, c), km in w_by_key.items():
+            in_world.setdefault(c, set()).update(m for _, m in km)
+        for (o, c), km in w_by_key.items():
+            members = tuple(sorted(in_world[c]))[:62]
             km = [(k, m) for k, m in km if m in members]
             if len(km) >= 2:
                 u = unions.setdefault(members, len(unions))
