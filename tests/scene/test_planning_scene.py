@@ -753,3 +753,26 @@ def test_obstacles_out_of_a_bodys_reach_are_not_paired_with_it(mbm_panda, monkey
     assert np.array_equal(answers, every.check(qs))
     assert not np.any(~answers & every.check_exact(qs))  # never free where coal sees contact
     assert 0.1 < answers.mean() < 0.9
+
+
+def test_obstacle_clear_answers_as_the_distance_does():
+    """The descent's test of a sphere against a primitive (squares compared) says clear exactly
+    where the distance exceeds the radius: boxes, cylinders and spheres at any pose, points
+    inside, outside and on their surfaces, radii from 0."""
+    from robocell.scene import _kernels as K
+
+    rng = np.random.default_rng(2)
+    dims = {K.OBS_BOX: (0.2, 0.1, 0.3), K.OBS_CYLINDER: (0.15, 0.25, 0), K.OBS_SPHERE: (0.2, 0, 0)}
+    agree = 0
+    for kind, d in dims.items():
+        T = Pose.from_rpy(*rng.uniform(-1, 1, 6)).matrix()
+        d = np.array(d, float)
+        points = T[:3, 3] + rng.uniform(-0.6, 0.6, (2000, 3))
+        radii = np.concatenate([np.zeros(200), rng.uniform(0, 0.4, 1800)])
+        for p, r in zip(points, radii, strict=True):
+            far = K._obstacle_distance(*p, kind, T, d)
+            if abs(far - r) < 1e-9:
+                continue  # on the boundary either answer is within rounding
+            assert K._obstacle_clear(*p, r, kind, T, d) == (far > r)
+            agree += 1
+    assert agree > 5900

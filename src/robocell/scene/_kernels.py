@@ -69,6 +69,28 @@ def _obstacle_distance(x, y, z, kind, T, dims):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, inline="always")
+def _obstacle_clear(x, y, z, r, kind, T, dims):  # type: ignore[no-untyped-def]
+    """Whether the sphere (x, y, z, r) is clear of a solid primitive at T:
+    ``_obstacle_distance(...) > r`` with squares compared (one square root fewer for a box or
+    a cylinder, none for a sphere: a sphere tree's descent asks this of every node)."""
+    dx, dy, dz = x - T[0, 3], y - T[1, 3], z - T[2, 3]
+    lx = T[0, 0] * dx + T[1, 0] * dy + T[2, 0] * dz
+    ly = T[0, 1] * dx + T[1, 1] * dy + T[2, 1] * dz
+    lz = T[0, 2] * dx + T[1, 2] * dy + T[2, 2] * dz
+    if kind == OBS_BOX:
+        ex = max(abs(lx) - dims[0], 0.0)
+        ey = max(abs(ly) - dims[1], 0.0)
+        ez = max(abs(lz) - dims[2], 0.0)
+        return ex * ex + ey * ey + ez * ez > r * r
+    if kind == OBS_CYLINDER:
+        er = max(math.sqrt(lx * lx + ly * ly) - dims[0], 0.0)
+        ez = max(abs(lz) - dims[1], 0.0)
+        return er * er + ez * ez > r * r
+    s = dims[0] + r
+    return lx * lx + ly * ly + lz * lz > s * s
+
+
+@njit(cache=True, inline="always")
 def _centre(n, b, TB, S, W, stamp, cur):  # type: ignore[no-untyped-def]
     """World centre of sphere n of body b (cached for the current state). The stamps' last
     entry counts the centres placed: a measure of the kernel's work (see ``work``)."""
@@ -126,21 +148,23 @@ def _world_clear(x, y, z, r, frame, dims, values):  # type: ignore[no-untyped-de
     """Whether the sphere (x, y, z, r) is clear of every obstacle of the world, by a lower
     bound on its centre's distance to them: the distance to the obstacles' bounding box, or
     the value at the nearest grid point less the distance to it (a distance field changes no
-    faster than the point moves). One lookup for a body instead of a test per obstacle."""
+    faster than the point moves). One lookup for a body instead of a test per obstacle.
+    ``frame``: origin (3), spacing h, the obstacles' box (lo 3, hi 3), 1 / h."""
     ex = max(frame[4] - x, x - frame[7], 0.0)
     ey = max(frame[5] - y, y - frame[8], 0.0)
     ez = max(frame[6] - z, z - frame[9], 0.0)
     if ex * ex + ey * ey + ez * ez > r * r:
         return True
-    h = frame[3]
-    i = min(max(int((x - frame[0]) / h + 0.5), 0), dims[0] - 1)
-    j = min(max(int((y - frame[1]) / h + 0.5), 0), dims[1] - 1)
-    k = min(max(int((z - frame[2]) / h + 0.5), 0), dims[2] - 1)
+    h, inv_h = frame[3], frame[10]
+    i = min(max(int((x - frame[0]) * inv_h + 0.5), 0), dims[0] - 1)
+    j = min(max(int((y - frame[1]) * inv_h + 0.5), 0), dims[1] - 1)
+    k = min(max(int((z - frame[2]) * inv_h + 0.5), 0), dims[2] - 1)
     dx = x - (frame[0] + i * h)
     dy = y - (frame[1] + j * h)
     dz = z - (frame[2] + k * h)
-    bound = values[(i * dims[1] + j) * dims[2] + k] - math.sqrt(dx * dx + dy * dy + dz * dz)
-    return bound > r
+    # value − |offset| > r, without a division or a square root (any grid point bounds it)
+    a = values[(i * dims[1] + j) * dims[2] + k] - r
+    return a > 0.0 and a * a > dx * dx + dy * dy + dz * dz
 
 
 @njit(cache=True, inline="always")
@@ -167,7 +191,7 @@ def _tree_touches_obstacle(b, root, nodes, left, right, TB, W, stamp, cur, kind,
         sp -= 1
         n = stack[sp]
         _centre(n, b, TB, nodes, W, stamp, cur)
-        if _obstacle_distance(W[n, 0], W[n, 1], W[n, 2], kind, To, dims) > nodes[n, 3]:
+        if _obstacle_clear(W[n, 0], W[n, 1], W[n, 2], nodes[n, 3], kind, To, dims):
             continue
         if left[n] < 0:
             return True
@@ -626,7 +650,7 @@ def _mesh_vs_obstacle(
         sp -= 1
         n = stack[sp]
         _centre(n, b, TB, nodes, W, stamp, cur)
-        if _obstacle_distance(W[n, 0], W[n, 1], W[n, 2], kind, To, dims) > nodes[n, 3]:
+        if _obstacle_clear(W[n, 0], W[n, 1], W[n, 2], nodes[n, 3], kind, To, dims):
             continue
         if left[n] >= 0:
             stack[sp] = left[n]
@@ -642,7 +666,7 @@ def _mesh_vs_obstacle(
             x = R[0, 0] * sx + R[0, 1] * sy + R[0, 2] * sz + t[0]
             y = R[1, 0] * sx + R[1, 1] * sy + R[1, 2] * sz + t[1]
             z = R[2, 0] * sx + R[2, 1] * sy + R[2, 2] * sz + t[2]
-            if _obstacle_distance(x, y, z, kind, To, dims) > tri_sphere[f, 3]:
+            if _obstacle_clear(x, y, z, tri_sphere[f, 3], kind, To, dims):
                 continue
             tests += 1 if kind == OBS_BOX else GJK_COST
             if tests > EXACT_BUDGET:
@@ -1238,12 +1262,8 @@ def _classify_state(
             dy = W[ru, 1] - obs_sphere[o, 1]
             dz = W[ru, 2] - obs_sphere[o, 2]
             rr = nodes[ru, 3] + obs_sphere[o, 3]
-            if (
-                dx * dx + dy * dy + dz * dz > rr * rr
-                or _obstacle_distance(
-                    W[ru, 0], W[ru, 1], W[ru, 2], obs_kind[o], obs_T[o], obs_dims[o]
-                )
-                > nodes[ru, 3]
+            if dx * dx + dy * dy + dz * dz > rr * rr or _obstacle_clear(
+                W[ru, 0], W[ru, 1], W[ru, 2], nodes[ru, 3], obs_kind[o], obs_T[o], obs_dims[o]
             ):
                 skip_to = k + world_group_count[g]
                 continue

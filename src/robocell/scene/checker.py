@@ -287,17 +287,17 @@ def world_grid(
     kind: NDArray[np.int64], T: NDArray[np.float64], dims: NDArray[np.float64], cap: float
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float32]]:
     """The world's distance grid for the kernel's first test of a body against the world
-    (``K._world_clear``): (frame: origin, spacing, the obstacles' bounding box; grid points
-    per axis; values, see ``K.world_distance_grid``). It spans the obstacles' box grown by
-    ``cap`` [m], at most WORLD_GRID_POINTS points 1 cm apart or more. Kept for the last few
-    worlds: a checker is built for each candidate grasp and place in the same world."""
+    (``K._world_clear``): (frame: origin, spacing, the obstacles' bounding box, 1 / spacing;
+    grid points per axis; values, see ``K.world_distance_grid``). It spans the obstacles' box
+    grown by ``cap`` [m], at most WORLD_GRID_POINTS points 1 cm apart or more. Kept for the
+    last few worlds: a checker is built for each candidate grasp and place in the same world."""
     key = (kind.tobytes(), T.tobytes(), dims.tobytes(), cap)
     hit = _WORLD_GRIDS.get(key)
     if hit is not None:
         return hit  # type: ignore[return-value]
     if len(kind) == 0:
         out = (
-            np.array([0.0, 0, 0, 1, 0, 0, 0, 0, 0, 0]),
+            np.array([0.0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1]),
             np.ones(3, np.int64),
             np.zeros(1, np.float32),
         )
@@ -321,7 +321,7 @@ def world_grid(
         while np.prod(n) > WORLD_GRID_POINTS:
             h *= 1.05
             n = np.ceil(size / h).astype(np.int64) + 1
-        frame = np.concatenate([lo - cap, [h], lo, hi])
+        frame = np.concatenate([lo - cap, [h], lo, hi, [1.0 / h]])
         values = K.world_distance_grid(kind, T, dims, frame, n, cap)
         out = (frame, n, values)
     _WORLD_GRIDS[key] = out
