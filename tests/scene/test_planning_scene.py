@@ -654,6 +654,19 @@ def test_world_grid_bounds_the_distance_to_every_obstacle(scene, irb120):
     assert clear.sum() > 0.8 * (true > radii + 2 * frame[3]).sum()  # it clears most of those
 
 
+def _with_states_near_contact(checker, qs):
+    """``qs`` and, for 30 of its free states and 30 of its colliding ones (coal's verdict),
+    a pair within 0.1 mrad of contact: each bisected 14 times towards the other."""
+    exact = checker.check_exact(qs)
+    near = []
+    for a, b in zip(qs[~exact][:30], qs[exact][:30], strict=True):
+        for _ in range(14):
+            m = (a + b) / 2
+            a, b = (a, m) if checker.check_exact(m[None])[0] else (m, b)
+        near += [a, b]
+    return np.vstack([qs, near])
+
+
 def test_checks_are_the_same_without_the_world_grid(mbm_panda):
     """The world grid only saves work: with it made useless (every value 0), the checker
     answers the same on random states and on states within 0.1 mrad of contact."""
@@ -664,17 +677,7 @@ def test_checks_are_the_same_without_the_world_grid(mbm_panda):
     scene.add_box("table", Pose((0.5, 0.0, 0.1)), (0.5, 0.8, 0.2))
     scene.add_cylinder("can", Pose((0.45, 0.2, 0.3)), 0.04, 0.2)
     checker = scene.checker(group)
-    rng = np.random.default_rng(4)
-    qs = group.random(rng, 2000)
-    exact = checker.check_exact(qs)
-    free, hit = qs[~exact][:30], qs[exact][:30]
-    near = []
-    for a, b in zip(free, hit, strict=True):
-        for _ in range(14):
-            m = (a + b) / 2
-            a, b = (a, m) if checker.check_exact(m[None])[0] else (m, b)
-        near += [a, b]
-    qs = np.vstack([qs, near])
+    qs = _with_states_near_contact(checker, group.random(np.random.default_rng(4), 2000))
     with_grid = checker.check(qs)
     assert np.array_equal(with_grid, checker.check_exact(qs))
     model = list(checker._model)
@@ -738,17 +741,7 @@ def test_obstacles_out_of_a_bodys_reach_are_not_paired_with_it(mbm_panda, monkey
     monkeypatch.setattr(C, "_reach", lambda *args: None)
     every = C.CollisionChecker(scene, group)
     assert len(every.world_pairs) > len(checker.world_pairs)
-    rng = np.random.default_rng(5)
-    qs = group.random(rng, 3000)
-    exact = every.check_exact(qs)
-    free, hit = qs[~exact][:30], qs[exact][:30]
-    near = []
-    for a, b in zip(free, hit, strict=True):
-        for _ in range(14):
-            m = (a + b) / 2
-            a, b = (a, m) if every.check_exact(m[None])[0] else (m, b)
-        near += [a, b]
-    qs = np.vstack([qs, near])
+    qs = _with_states_near_contact(every, group.random(np.random.default_rng(5), 3000))
     answers = checker.check(qs)
     assert np.array_equal(answers, every.check(qs))
     assert not np.any(~answers & every.check_exact(qs))  # never free where coal sees contact
