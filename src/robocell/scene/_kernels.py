@@ -50,12 +50,20 @@ NRT_OFF: dict[str, Any] = {"_nrt": False}
 
 
 @njit(cache=True, inline="always")
+def _in_frame(x, y, z, T):  # type: ignore[no-untyped-def]
+    """Point (x, y, z) in the frame of pose T (3×4 or 4×4, rotation and translation)."""
+    dx, dy, dz = x - T[0, 3], y - T[1, 3], z - T[2, 3]
+    return (
+        T[0, 0] * dx + T[1, 0] * dy + T[2, 0] * dz,
+        T[0, 1] * dx + T[1, 1] * dy + T[2, 1] * dz,
+        T[0, 2] * dx + T[1, 2] * dy + T[2, 2] * dz,
+    )
+
+
+@njit(cache=True, inline="always")
 def _obstacle_distance(x, y, z, kind, T, dims):  # type: ignore[no-untyped-def]
     """Distance from point (x, y, z) to a solid primitive at T (0 inside)."""
-    dx, dy, dz = x - T[0, 3], y - T[1, 3], z - T[2, 3]
-    lx = T[0, 0] * dx + T[1, 0] * dy + T[2, 0] * dz
-    ly = T[0, 1] * dx + T[1, 1] * dy + T[2, 1] * dz
-    lz = T[0, 2] * dx + T[1, 2] * dy + T[2, 2] * dz
+    lx, ly, lz = _in_frame(x, y, z, T)
     if kind == OBS_BOX:
         ex = max(abs(lx) - dims[0], 0.0)
         ey = max(abs(ly) - dims[1], 0.0)
@@ -73,10 +81,7 @@ def _obstacle_clear(x, y, z, r, kind, T, dims):  # type: ignore[no-untyped-def]
     """Whether the sphere (x, y, z, r) is clear of a solid primitive at T:
     ``_obstacle_distance(...) > r`` with squares compared (one square root fewer for a box or
     a cylinder, none for a sphere: a sphere tree's descent asks this of every node)."""
-    dx, dy, dz = x - T[0, 3], y - T[1, 3], z - T[2, 3]
-    lx = T[0, 0] * dx + T[1, 0] * dy + T[2, 0] * dz
-    ly = T[0, 1] * dx + T[1, 1] * dy + T[2, 1] * dz
-    lz = T[0, 2] * dx + T[1, 2] * dy + T[2, 2] * dz
+    lx, ly, lz = _in_frame(x, y, z, T)
     if kind == OBS_BOX:
         ex = max(abs(lx) - dims[0], 0.0)
         ey = max(abs(ly) - dims[1], 0.0)
