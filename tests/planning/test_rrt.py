@@ -467,6 +467,70 @@ def test_the_searches_threads_check_the_winners_path_as_the_final_check_does(wal
     assert seen[threads] == {False, True} and True in seen[1]
 
 
+def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
+    """Side by side, a search that found its path checks it while the other search runs on
+    (in some plans the winner's path is checked in part before it is known to win); each
+    path is checked on counters, marks and stamps of its own, and the winner's whole, with the
+    answers of the final check from scratch: FREE throughout exactly when the final check
+    finds it so, else the states it finds not FREE marked."""
+    import numba
+
+    from robocell.planning import _kernels as PK
+    from robocell.scene import _kernels as SK
+    from robocell.scene.checker import SEARCH_SLOTS, next_epoch
+    from tests.conftest import past_a_mesh
+
+    if numba.get_num_threads() < 2:
+        pytest.skip("needs two of the kernel's threads")
+    ahead = compared = 0
+    for scene in (walled, past_a_mesh(irb120)):
+        arm = scene.robot.group("arm")
+        checker = scene.checker(arm)
+        warm_up(checker)
+        model, scratch = checker.kernel_inputs()
+        slot = scratch[0].shape[0] - SEARCH_SLOTS
+        for seed in range(16):
+            seeds = np.random.default_rng(seed).integers(2**31, size=2)
+            epoch = next_epoch(5 << 40)
+            epochs = np.array([epoch, epoch + (1 << 40)], np.int64)
+            finish = (seed, 1e18, 20, 0.5, 100, epoch + (2 << 40), 0.02)
+            final = (0.01, 0.05, 8, epoch + (4 << 40), True)
+            out = PK.rrt_connect_many(
+                START, GOAL[None], arm.lower, arm.upper, seeds, 1e18, 0.2, 0.5, model,
+                scratch, epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish, final,
+            )  # fmt: skip
+            paths, lengths, statuses, _, found, shortened, _, sync, not_free = out
+            w = PK._best(statuses, found, 2)
+            assert statuses[w] == PK.FOUND and shortened[w]
+            c = PK._counters(2, w)
+            ahead += sync[c + PK.SYNC_AHEAD] > 0
+            n_first, n_later = sync[c + PK.SYNC_STATES], sync[c + PK.SYNC_LATER_STATES]
+            assert n_first > 0 and sync[c + PK.SYNC_CHECKED] == n_first
+            path = paths[w, : lengths[w]]
+            states, segment, cls, flags, arcs, arc_cls, arc_flags, summary = PK.validate_path(
+                path, 0.01, 0.05, True, checker.compiled_inputs, next_epoch(1 << 40), 8,
+                NOTHING_CHECKED,
+            )  # fmt: skip
+            assert (sync[c + PK.SYNC_BAD] == 0) == (summary == 0)
+            if summary == 0:
+                continue
+            # marked by their row in _final_check's first batch: the segments' states off the
+            # corners' stretches, then the arcs' (dropped from its answer when a segment
+            # state is a HIT: the corners then stay sharp)
+            first, _, later = PK._final_batch(path, 0.01, 0.05)
+            assert len(first) == n_first and len(later) == n_later
+            _, _, _, off, _ = PK._final_states(path, 0.01, 0.05, True)
+            rows = np.concatenate([np.arange(r0, r1) for r0, r1 in off])
+            want = cls[rows] != SK.FREE
+            marks = not_free[w, :n_first].astype(bool)
+            assert np.array_equal(marks[: len(rows)], want)
+            if len(arc_cls):
+                assert np.array_equal(marks[len(rows) :], arc_cls != SK.FREE)
+            compared += 1
+    # the winner's path checked in part before it was known to win, in some plans
+    assert ahead >= 1 and compared >= 1
+
+
 def test_the_final_check_takes_the_states_the_searches_threads_found_not_free(walled, irb120):
     """A path the searches' threads found not FREE throughout (past a wall the search's
     coarse steps skip over, past a mesh that leaves states unsure): the threads checked every

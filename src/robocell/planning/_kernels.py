@@ -161,6 +161,13 @@ def _beaten(found, me, work):  # type: ignore[no-untyped-def]
     return False
 
 
+@njit(cache=True, inline="always")
+def _lost(found, me):  # type: ignore[no-untyped-def]
+    """Whether search ``me``, which found a path, lost the race: another found one with less
+    work (see :func:`_best`)."""
+    return _beaten(found, me, found[me])
+
+
 @njit(cache=True)
 def _placed(scratch, slot):  # type: ignore[no-untyped-def]
     """The sphere centres the kernel has placed on scratch slot ``slot`` (K._centre)."""
@@ -368,7 +375,7 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
     i is the first ``lengths[i]`` rows, statuses, stats (n, 5), the work each had done when
     it found its path, whether its path is shortcut already, the states its shortcut
     checked, the counters the threads share (SYNC_*), and which of the final check's states
-    the threads found not FREE (:func:`_final_share`)."""
+    of each search's path the threads found not FREE (:func:`_final_share`)."""
     return (
         np.empty((n, 2 * cap, dof)),
         np.zeros(n, np.int64),
@@ -377,8 +384,8 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
         np.full(n, np.iinfo(np.int64).max, np.int64),
         np.zeros(n, np.bool_),
         np.zeros(n, np.int64),
-        np.zeros(SYNC_STARTED + 2 * n, np.int64),
-        np.zeros(FINAL_STATES, np.int8),
+        np.zeros(_counters(n, n), np.int64),
+        np.zeros((n, FINAL_STATES), np.int8),
     )
 
 
@@ -403,7 +410,7 @@ def _search_one(
     (:func:`_final_share`)."""
     paths, lengths, statuses, stats, found, shortened, shortcut_states, sync, _ = out
     n = seeds.shape[0]
-    _atomic_add(sync, SYNC_STARTED + i, 1)
+    _atomic_add(sync, i, 1)
     path, status, st = rrt_connect(
         start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
         epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
@@ -414,7 +421,7 @@ def _search_one(
         stride = (1 << 40) // seeds.shape[0]
         short, sc = shortcut(
             path, seed, sc_deadline, resolution, model, scratch, sc_epoch + i * stride, tries,
-            budget, first_slot + i, min_gain,
+            budget, first_slot + i, min_gain, found, i,
         )  # fmt: skip
         if short.shape[0] <= paths.shape[1]:
             path = short
@@ -424,27 +431,37 @@ def _search_one(
     paths[i, : path.shape[0]] = path
     statuses[i] = status
     stats[i] = st
-    _atomic_add(sync, SYNC_STARTED + n + i, 1)  # done: what it wrote above is there to read
+    _atomic_add(sync, n + i, 1)  # done: what it wrote above is there to read
     resolution_f, max_deviation, chunk, epoch_f, concurrent = final
     if resolution_f > 0 and tries > 0:
         _final_share(
             out, n, resolution_f, max_deviation, chunk, epoch_f, concurrent,
-            deadline, model, scratch, first_slot + i,
+            deadline, model, scratch, first_slot + i, i,
         )  # fmt: skip
 
 
-# the counters the searches' threads share (_search_outputs' last array): the next chunk of
-# the final check's first states to take, how many were not FREE, how many were checked, of
-# how many; the same for the states of the corners' stretches (checked after them when one
-# was not FREE); then per search whether it started, then whether it is done
+# the counters the searches' threads share (_search_outputs' sync array): per search j
+# whether it started (at j), then per search whether it is done (at n + j); then, from
+# _counters(n, i), those of the final check of search i's path: the next chunk of its first
+# states to take, how many were not FREE, how many were checked, of how many; the same for
+# the states of the corners' stretches (checked after them when one was not FREE); the
+# chunks of the first states its own search's thread took before the winner was known
 SYNC_NEXT, SYNC_BAD, SYNC_CHECKED, SYNC_STATES = 0, 1, 2, 3
-SYNC_LATER_NEXT, SYNC_LATER_CHECKED, SYNC_LATER_STATES, SYNC_STARTED = 4, 5, 6, 7
+SYNC_LATER_NEXT, SYNC_LATER_CHECKED, SYNC_LATER_STATES, SYNC_AHEAD = 4, 5, 6, 7
+SYNC_COUNTERS = 8  # per search
 # the most final-check states whose classes the searches' threads keep for the final check
 # proper (_final_share; a longer path's are checked again there)
 FINAL_STATES = 1 << 14
 # how long a search's thread waits for another search to start on a thread of its own (a
 # sleeping thread wakes in 0.2–0.4 ms here; OpenMP may give fewer threads than asked)
 NOT_STARTED_WAIT = 0.005
+
+
+@njit(cache=True, inline="always")
+def _counters(n, i):  # type: ignore[no-untyped-def]
+    """Where the counters of the final check of search i's path start in the sync array of n
+    searches."""
+    return 2 * n + SYNC_COUNTERS * i
 
 
 @njit(cache=True)
@@ -462,7 +479,7 @@ def _best(statuses, found, n):  # type: ignore[no-untyped-def]
 def _decided(sync, statuses, found, n):  # type: ignore[no-untyped-def]
     """:func:`_best` once it is known (every search done, its outputs written), else −1."""
     for j in range(n):
-        if _atomic_add(sync, SYNC_STARTED + n + j, 0) == 0:
+        if _atomic_add(sync, n + j, 0) == 0:
             return -1
     return _best(statuses, found, n)
 
@@ -470,17 +487,18 @@ def _decided(sync, statuses, found, n):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def _final_share(
     out, n, resolution, max_deviation, chunk, epoch, concurrent, deadline, model,
-    scratch, slot,
+    scratch, slot, me,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
-    """A search's thread, once its search is done, checks the winner's shortcut path with
+    """Search ``me``'s thread, once its search is done, checks the winner's shortcut path with
     the others, as :func:`_final_check` would classify it first (:func:`_final_batch`):
-    chunks of ``chunk`` states taken in turn from a shared counter and scanned on the
-    search's own code and scratch slot (:func:`SK.scan`, stamps ``epoch`` + the state's row).
-    ``out``'s counters then say whether every state was FREE (the final check's usual answer:
-    the caller then needs no final check of its own); else ``out``'s last array marks those
-    that were not, by their row in the final check's first batch, and the final check
-    classifies only them again (``known``). Until session 33 the threads stopped at the first
-    state that was not FREE, and the final check classified every state again.
+    chunks of ``chunk`` states taken in turn from the path's shared counters
+    (:func:`_counters`) and scanned on the search's own code and scratch slot
+    (:func:`SK.scan`, stamps ``epoch`` + the search's share of the 2**40 stamps + the state's
+    row). ``out``'s counters then say whether every state was FREE (the final check's usual
+    answer: the caller then needs no final check of its own); else ``out``'s last array
+    marks those that were not, by their row in the final check's first batch, and the final
+    check classifies only them again (``known``). Until session 33 the threads stopped at
+    the first state that was not FREE, and the final check classified every state again.
 
     A thread waits for the winner to be known (every search done; pausing) while the
     searches it waits for run on other threads: started, or ``concurrent`` (each search has
@@ -495,19 +513,56 @@ def _final_share(
     table_under_pick 1.810 against 1.761: there 24 of 50 searches' paths pass through an
     obstacle between the search's states, and the final check proper ran after the threads'
     check stopped at the first state that was not FREE (scanned in the order of
-    :func:`_final_batch`; in order, 1.944 against 1.764)."""
+    :func:`_final_batch`; in order, 1.944 against 1.764).
+
+    While it waits, a thread whose search found a path checks that path, a chunk at a time,
+    looking at the decision between chunks: it wins if the search it waits for does more
+    work than it did before finding one (timed in session 36, Panda table_pick after an
+    ``ompl`` plan: in 70 of 150 plans the winner's thread waited 120 µs for the other search,
+    while its path's check took 180 µs on two threads after it). Each search's path has
+    counters, marks and stamps of its own, so a check of a path that lost is left as it is.
+    The thread's scanner is made before it waits, not after."""
     paths, lengths, statuses, _, found, shortened, _, sync, not_free = out
+    dof = paths.shape[2]
+    sc = SK.scanner(model, scratch, slot, chunk)
+    stride = (1 << 40) // n  # each search's path checked from stamps of its own
+    # the path this thread checks (-1: none yet), its first batch, their rows in the final
+    # check's order, and the states of the corners' stretches (_final_batch)
+    prepared = -1
+    both, order, later = np.empty((0, dof)), np.empty(0, np.int64), np.empty((0, dof))
+    # its own path, checked while it waits, until it loses
+    ahead = statuses[me] == FOUND and shortened[me]
     t0 = _clock()
     while True:
         w = _decided(sync, statuses, found, n)
         if w >= 0:
             break
+        if ahead and _lost(found, me):
+            ahead = False
+        if ahead:
+            if prepared != me:
+                both, order, later = _final_batch(
+                    paths[me, : lengths[me]], resolution, max_deviation
+                )  # fmt: skip
+                prepared = me
+                c = _counters(n, me)
+                sync[c + SYNC_STATES] = both.shape[0]
+                sync[c + SYNC_LATER_STATES] = later.shape[0]
+            c = _counters(n, me)
+            keep = both.shape[0] + later.shape[0] <= not_free.shape[1]
+            taken = _scan_shared(
+                both, order, 0, sync, c, SYNC_NEXT, SYNC_CHECKED, chunk, sc,
+                epoch + me * stride, not_free[me], keep, 1,
+            )  # fmt: skip
+            _atomic_add(sync, c + SYNC_AHEAD, taken)
+            ahead = taken > 0  # else its first batch is all taken
+            continue
         now = _clock()
         if now > deadline:
             return
         for j in range(n):
-            if _atomic_add(sync, SYNC_STARTED + n + j, 0) == 0:
-                if _atomic_add(sync, SYNC_STARTED + j, 0) == 0:
+            if _atomic_add(sync, n + j, 0) == 0:
+                if _atomic_add(sync, j, 0) == 0:
                     # not running yet: it checks when it is done (a search said to have a
                     # thread of its own that has not started in NOT_STARTED_WAIT s has not)
                     if not concurrent or now - t0 > NOT_STARTED_WAIT:
@@ -515,34 +570,43 @@ def _final_share(
         _pause()
     if statuses[w] != FOUND or not shortened[w]:
         return
-    both, order, later = _final_batch(paths[w, : lengths[w]], resolution, max_deviation)
+    if prepared != w:
+        both, order, later = _final_batch(paths[w, : lengths[w]], resolution, max_deviation)
     N, L = both.shape[0], later.shape[0]
-    sync[SYNC_STATES] = N  # the same in every thread
-    sync[SYNC_LATER_STATES] = L
-    keep = N + L <= not_free.shape[0]
-    sc = SK.scanner(model, scratch, slot, chunk)
-    _scan_shared(both, order, 0, sync, SYNC_NEXT, SYNC_CHECKED, chunk, sc, epoch, not_free, keep)
-    if _atomic_add(sync, SYNC_BAD, 0) > 0:
+    c = _counters(n, w)
+    sync[c + SYNC_STATES] = N  # the same in every thread
+    sync[c + SYNC_LATER_STATES] = L
+    keep = N + L <= not_free.shape[1]
+    e = epoch + w * stride
+    _scan_shared(
+        both, order, 0, sync, c, SYNC_NEXT, SYNC_CHECKED, chunk, sc, e, not_free[w], keep, N,
+    )  # fmt: skip
+    if _atomic_add(sync, c + SYNC_BAD, 0) > 0:
         # the final check classifies the corners' stretches of the segments too (where each
         # segment collides, whether the corners may stay sharp): the thread that found a
         # state not FREE gets here, and any other still checking
         _scan_shared(
-            later, np.arange(L), N, sync, SYNC_LATER_NEXT, SYNC_LATER_CHECKED, chunk, sc,
-            epoch + N, not_free, keep,
+            later, np.arange(L), N, sync, c, SYNC_LATER_NEXT, SYNC_LATER_CHECKED, chunk, sc,
+            e + N, not_free[w], keep, L,
         )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
-def _scan_shared(qs, order, base, sync, counter, checked, chunk, sc, epoch, not_free, keep):  # type: ignore[no-untyped-def]
-    """:func:`_final_share`'s scan of ``qs``: chunks of ``chunk`` states taken in turn from
-    the shared counter ``sync[counter]``, each scanned whole (stamps ``epoch`` + the row):
-    the states not FREE counted in ``sync[SYNC_BAD]`` and, if ``keep``, marked in
-    ``not_free`` at ``base + order[row]``; the states checked counted in ``sync[checked]``."""
+def _scan_shared(
+    qs, order, base, sync, c, counter, checked, chunk, sc, epoch, not_free, keep, most
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """:func:`_final_share`'s scan of ``qs``: at most ``most`` chunks of ``chunk`` states
+    taken in turn from the shared counter ``sync[c + counter]``, each scanned whole (stamps
+    ``epoch`` + the row): the states not FREE counted in ``sync[c + SYNC_BAD]`` and, if
+    ``keep``, marked in ``not_free`` at ``base + order[row]``; the states checked counted in
+    ``sync[c + checked]``. Returns how many chunks it took."""
     N = qs.shape[0]
-    while True:
-        c0 = _atomic_add(sync, counter, 1) * chunk
+    taken = 0
+    while taken < most:
+        c0 = _atomic_add(sync, c + counter, 1) * chunk
         if c0 >= N:
             break
+        taken += 1
         c1 = min(N, c0 + chunk)
         s = c0
         while s < c1:
@@ -550,11 +614,12 @@ def _scan_shared(qs, order, base, sync, counter, checked, chunk, sc, epoch, not_
             if s + k >= c1:
                 break
             # state s + k is not FREE: noted, and the scan goes on after it
-            _atomic_add(sync, SYNC_BAD, 1)
+            _atomic_add(sync, c + SYNC_BAD, 1)
             if keep:
                 not_free[base + order[s + k]] = 1
             s += k + 1
-        _atomic_add(sync, checked, c1 - c0)
+        _atomic_add(sync, c + checked, c1 - c0)
+    return taken
 
 
 @njit(cache=True, inline="always")
@@ -571,8 +636,9 @@ def _edge_free(a, b, resolution, sc, epoch, buf, stats):  # type: ignore[no-unty
 
 
 @njit(cache=True)
-def _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline):  # type: ignore[no-untyped-def]
-    """From each kept waypoint, jump to the farthest one reachable in a straight line."""
+def _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline, found, me):  # type: ignore[no-untyped-def]
+    """From each kept waypoint, jump to the farthest one reachable in a straight line (until
+    ``deadline``, or until search ``me`` lost: :func:`_lost`)."""
     n = path.shape[0]
     keep = np.empty(n, np.int64)
     keep[0] = 0
@@ -581,7 +647,7 @@ def _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline):  # type:
     while i < n - 1:
         j = n - 1
         while j > i + 1:
-            if _clock() > deadline:
+            if _clock() > deadline or _lost(found, me):
                 j = i + 1
                 break
             if _edge_free(path[i], path[j], resolution, sc, epoch, buf, stats):
@@ -595,26 +661,43 @@ def _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline):  # type:
 
 @njit(cache=True)
 def shortcut(
-    path, seed, deadline, resolution, model, scratch, epoch, max_tries, budget, slot, min_gain
+    path,
+    seed,
+    deadline,
+    resolution,
+    model,
+    scratch,
+    epoch,
+    max_tries,
+    budget,
+    slot,
+    min_gain,
+    found,
+    me,
 ):  # type: ignore[no-untyped-def]
     """:func:`robocell.planning.rrt.shortcut` compiled: greedy waypoint skipping, random
     shortcuts between points on the path (at most ``max_tries``, until 12 fail in a row or
     ``budget`` states are checked; one that would shorten the stretch it replaces by less than
     the share ``min_gain`` is not checked, and fails), greedy again if they changed the path;
     repeated waypoints dropped. Checks on scratch slot ``slot``. Returns the path and stats
-    (2: epochs used, 3: states checked)."""
+    (2: epochs used, 3: states checked).
+
+    It stops early, its path left as far as it got, once search ``me`` of a race lost
+    (:func:`_lost`: ``found`` as :func:`rrt_connect` takes it; one entry and ``me`` 0 when
+    there is no race): the winner's thread waited for it otherwise (session 36: 30 µs of a
+    Panda table_pick plan's kernel call, median; the plans 3 % faster)."""
     np.random.seed(seed)  # noqa: NPY002 (numba's generator)
     dof = path.shape[1]
     stats = np.zeros(4, np.int64)
     buf = np.empty((4096, dof))
     sc = SK.scanner(model, scratch, slot, buf.shape[0])
-    path = _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline)
+    path = _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline, found, me)
     stop_at = stats[3] + budget
     fails = 0
     tries = 0
     changed = False
     while path.shape[0] > 2 and tries < max_tries and fails < 12 and _clock() < deadline:
-        if stats[3] >= stop_at:
+        if stats[3] >= stop_at or _lost(found, me):
             break
         tries += 1
         K = path.shape[0]
@@ -652,7 +735,7 @@ def shortcut(
         else:
             fails += 1
     if changed:  # else the first pass's result stands (a second would redo its checks)
-        path = _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline)
+        path = _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline, found, me)
     # repeated waypoints dropped (at least the two ends)
     keep = np.ones(path.shape[0], np.bool_)
     for s in range(1, path.shape[0]):
@@ -727,9 +810,9 @@ def plan_in(
 
     With ``final_resolution`` > 0, side by side, the searches' threads then check the
     winner's shortcut path together as the final check classifies it first, in chunks of
-    ``final_chunk`` states, stopping at the first state that is not FREE
-    (:func:`_final_share`, stamps from ``epoch + (n + 2)·2**40``; ``concurrent``: each search
-    has a thread of its own).
+    ``final_chunk`` states (:func:`_final_share`, stamps from ``epoch + (n + 2)·2**40``,
+    search i's path from i/n of the way on; ``concurrent``: each search has a thread of its
+    own).
 
     Returns the path (the winner's, or search 0's if none found one), the search's status
     and stats (:func:`rrt_connect`), the states the shortcut checked, whether that check
@@ -802,18 +885,20 @@ def plan_in(
         budget = max(shortcut_min, int(shortcut_share * stats[best, 3]))
         path, st = shortcut(
             path, shortcut_seed, shortcut_deadline, resolution, model, scratch, epoch + (n << 40),
-            shortcut_tries, budget, first_slot, shortcut_min_gain,
+            shortcut_tries, budget, first_slot, shortcut_min_gain, np.zeros(1, np.int64),
+            np.int64(0),
         )  # fmt: skip
         shortcut_states = st[3]
     # the threads' check covered this path whole (_final_share): every state FREE, or which
     # were not, for the final check proper
-    whole = shortened[best] and sync[SYNC_STATES] > 0 and sync[SYNC_CHECKED] == sync[SYNC_STATES]
-    free = whole and sync[SYNC_BAD] == 0
-    N, L = sync[SYNC_STATES], sync[SYNC_LATER_STATES]
-    kept = whole and not free and N + L <= not_free.shape[0]
-    if kept and sync[SYNC_LATER_CHECKED] == L:
+    c = _counters(n, best)
+    N, L = sync[c + SYNC_STATES], sync[c + SYNC_LATER_STATES]
+    whole = shortened[best] and N > 0 and sync[c + SYNC_CHECKED] == N
+    free = whole and sync[c + SYNC_BAD] == 0
+    kept = whole and not free and N + L <= not_free.shape[1]
+    if kept and sync[c + SYNC_LATER_CHECKED] == L:
         N += L  # the corners' stretches too
-    known = not_free[: N if kept else 0].copy()
+    known = not_free[best, : N if kept else 0].copy()
     return path, statuses[best], stats[best].copy(), shortcut_states, free, known
 
 
@@ -822,7 +907,7 @@ def shortcut_in(path, seed, deadline, resolution, inputs, epoch, max_tries, budg
     """:func:`shortcut` on a KernelInputs."""
     return shortcut(
         path, seed, deadline, resolution, inputs.model, inputs.scratch, epoch, max_tries, budget,
-        np.int64(0), min_gain,
+        np.int64(0), min_gain, np.zeros(1, np.int64), np.int64(0),
     )  # fmt: skip
 
 
