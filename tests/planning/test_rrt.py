@@ -489,7 +489,12 @@ def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
         warm_up(checker)
         model, scratch = checker.kernel_inputs()
         slot = scratch[0].shape[0] - SEARCH_SLOTS
-        for seed in range(16):
+        # which thread ends first is up to the scheduler: plans until the winner's path was
+        # checked ahead in a few (9, 16 and 11 of 800 plans in three runs here, alone and
+        # after other tests: 0 in 1200 would be a chance of about 1e-6)
+        for seed in range(600):
+            if seed >= 16 and ahead >= 2:
+                break
             seeds = np.random.default_rng(seed).integers(2**31, size=2)
             epoch = next_epoch(5 << 40)
             epochs = np.array([epoch, epoch + (1 << 40)], np.int64)
