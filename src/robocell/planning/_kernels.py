@@ -522,14 +522,16 @@ def _final_share(
     while its path's check took 180 µs on two threads after it). Each search's path has
     counters, marks and stamps of its own, so a check of a path that lost is left as it is.
     The thread's scanner is made before it waits, not after."""
-    paths, lengths, statuses, _, found, shortened, _, sync, not_free = out
+    paths, _, statuses, _, found, shortened, _, sync, not_free = out
     dof = paths.shape[2]
     sc = SK.scanner(model, scratch, slot, chunk)
     stride = (1 << 40) // n  # each search's path checked from stamps of its own
-    # the path this thread checks (-1: none yet), its first batch, their rows in the final
-    # check's order, and the states of the corners' stretches (_final_batch)
+    # the path this thread checks (-1: none yet): its first batch, their rows in the final
+    # check's order, the states of the corners' stretches, whether their marks fit (_prepared)
     prepared = -1
     both, order, later = np.empty((0, dof)), np.empty(0, np.int64), np.empty((0, dof))
+    keep = False
+    mine = _counters(n, me)
     # its own path, checked while it waits, until it loses
     ahead = statuses[me] == FOUND and shortened[me]
     t0 = _clock()
@@ -541,20 +543,13 @@ def _final_share(
             ahead = False
         if ahead:
             if prepared != me:
-                both, order, later = _final_batch(
-                    paths[me, : lengths[me]], resolution, max_deviation
-                )  # fmt: skip
+                both, order, later, keep = _prepared(out, n, me, resolution, max_deviation)
                 prepared = me
-                c = _counters(n, me)
-                sync[c + SYNC_STATES] = both.shape[0]
-                sync[c + SYNC_LATER_STATES] = later.shape[0]
-            c = _counters(n, me)
-            keep = both.shape[0] + later.shape[0] <= not_free.shape[1]
             taken = _scan_shared(
-                both, order, 0, sync, c, SYNC_NEXT, SYNC_CHECKED, chunk, sc,
+                both, order, 0, sync, mine, SYNC_NEXT, SYNC_CHECKED, chunk, sc,
                 epoch + me * stride, not_free[me], keep, 1,
             )  # fmt: skip
-            _atomic_add(sync, c + SYNC_AHEAD, taken)
+            _atomic_add(sync, mine + SYNC_AHEAD, taken)
             ahead = taken > 0  # else its first batch is all taken
             continue
         now = _clock()
@@ -571,12 +566,9 @@ def _final_share(
     if statuses[w] != FOUND or not shortened[w]:
         return
     if prepared != w:
-        both, order, later = _final_batch(paths[w, : lengths[w]], resolution, max_deviation)
+        both, order, later, keep = _prepared(out, n, w, resolution, max_deviation)
     N, L = both.shape[0], later.shape[0]
     c = _counters(n, w)
-    sync[c + SYNC_STATES] = N  # the same in every thread
-    sync[c + SYNC_LATER_STATES] = L
-    keep = N + L <= not_free.shape[1]
     e = epoch + w * stride
     _scan_shared(
         both, order, 0, sync, c, SYNC_NEXT, SYNC_CHECKED, chunk, sc, e, not_free[w], keep, N,
@@ -589,6 +581,19 @@ def _final_share(
             later, np.arange(L), N, sync, c, SYNC_LATER_NEXT, SYNC_LATER_CHECKED, chunk, sc,
             e + N, not_free[w], keep, L,
         )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _prepared(out, n, i, resolution, max_deviation):  # type: ignore[no-untyped-def]
+    """Search i's path as the final check classifies it (:func:`_final_batch`: its first
+    batch, their rows, the corners' stretches) and whether its states' marks fit ``out``'s;
+    the sizes set in its counters (the same in every thread)."""
+    paths, lengths, _, _, _, _, _, sync, not_free = out
+    both, order, later = _final_batch(paths[i, : lengths[i]], resolution, max_deviation)
+    c = _counters(n, i)
+    sync[c + SYNC_STATES] = both.shape[0]
+    sync[c + SYNC_LATER_STATES] = later.shape[0]
+    return both, order, later, both.shape[0] + later.shape[0] <= not_free.shape[1]
 
 
 @njit(cache=True, inline="always")

@@ -235,18 +235,6 @@ def _reach(
     return T_links[tree.child_link[chain[first]], :3, 3].copy(), radius
 
 
-def _point_distance(p: NDArray[np.float64], o: Obstacle) -> float:
-    """Distance from point p (root frame) to obstacle primitive o (0 inside)."""
-    local = o.T_scene_shape[:3, :3].T @ (p - o.T_scene_shape[:3, 3])
-    d = o.dims
-    if o.kind == K.OBS_BOX:
-        return float(np.linalg.norm(np.maximum(np.abs(local) - d, 0.0)))
-    if o.kind == K.OBS_CYLINDER:
-        radial = max(float(np.hypot(local[0], local[1])) - d[0], 0.0)
-        return float(np.hypot(radial, max(abs(local[2]) - d[1], 0.0)))
-    return max(float(np.linalg.norm(local)) - d[0], 0.0)
-
-
 REACH_MARGIN = 1e-3  # [m] a pair is left out only if its obstacle is this much beyond reach
 
 
@@ -990,7 +978,12 @@ class CollisionChecker:
             for oi, o in enumerate(obstacles):
                 if acm.allowed(b.name, o.object_id):
                     continue
-                if reach is not None and _point_distance(reach[0], o) > reach[1] + REACH_MARGIN:
+                if reach is not None and (
+                    K._obstacle_distance(
+                        reach[0][0], reach[0][1], reach[0][2], o.kind, o.T_scene_shape, o.dims
+                    )
+                    > reach[1] + REACH_MARGIN
+                ):
                     continue  # the body cannot reach the obstacle, whatever the joints do
                 (self.world_pairs if b.moving else self.static_world_pairs).append((bi, oi))
         self.self_pairs: list[tuple[int, int]] = []
