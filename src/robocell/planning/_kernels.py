@@ -521,7 +521,14 @@ def _final_share(
     ``ompl`` plan: in 70 of 150 plans the winner's thread waited 120 µs for the other search,
     while its path's check took 180 µs on two threads after it). Each search's path has
     counters, marks and stamps of its own, so a check of a path that lost is left as it is.
-    The thread's scanner is made before it waits, not after."""
+    The thread's scanner is made before it waits, not after.
+
+    A thread with nothing to check while it waits could scan chunks of the edges the other
+    search's shortcut checks (the edge's states posted on a board, chunks of 4 taken by
+    compare-and-swap, the answer and count as one scan's). Tried in session 37: the same
+    paths, the waiting thread scanned 40 % of the posted chunks, but the kernel call was
+    slower, hot and after an ``ompl`` plan (Panda table_pick 380 → 462 µs, table_under_pick
+    721 → 774 hot; the board alone, with no thread to help, 511 → 602): not kept."""
     paths, _, statuses, _, found, shortened, _, sync, not_free = out
     dof = paths.shape[2]
     sc = SK.scanner(model, scratch, slot, chunk)
