@@ -418,9 +418,8 @@ def _search_one(
     seed, sc_deadline, tries, share, min_states, sc_epoch, min_gain = finish
     if status == FOUND and tries > 0:
         budget = max(min_states, int(share * st[3]))
-        stride = (1 << 40) // seeds.shape[0]
         short, sc = shortcut(
-            path, seed, sc_deadline, resolution, model, scratch, sc_epoch + i * stride, tries,
+            path, seed, sc_deadline, resolution, model, scratch, _stamps(sc_epoch, n, i), tries,
             budget, first_slot + i, min_gain, found, i,
         )  # fmt: skip
         if short.shape[0] <= paths.shape[1]:
@@ -455,6 +454,13 @@ FINAL_STATES = 1 << 14
 # how long a search's thread waits for another search to start on a thread of its own (a
 # sleeping thread wakes in 0.2–0.4 ms here; OpenMP may give fewer threads than asked)
 NOT_STARTED_WAIT = 0.005
+
+
+@njit(cache=True, inline="always")
+def _stamps(epoch, n, i):  # type: ignore[no-untyped-def]
+    """The first of search i's share of the 2**40 stamps from ``epoch`` of n searches (its
+    shortcut's, and its path's final check: each search's of its own)."""
+    return epoch + i * ((1 << 40) // n)
 
 
 @njit(cache=True, inline="always")
@@ -532,7 +538,6 @@ def _final_share(
     paths, _, statuses, _, found, shortened, _, sync, not_free = out
     dof = paths.shape[2]
     sc = SK.scanner(model, scratch, slot, chunk)
-    stride = (1 << 40) // n  # each search's path checked from stamps of its own
     # the path this thread checks (-1: none yet): its first batch, their rows in the final
     # check's order, the states of the corners' stretches, whether their marks fit (_prepared)
     prepared = -1
@@ -554,7 +559,7 @@ def _final_share(
                 prepared = me
             taken = _scan_shared(
                 both, order, 0, sync, mine, SYNC_NEXT, SYNC_CHECKED, chunk, sc,
-                epoch + me * stride, not_free[me], keep, 1,
+                _stamps(epoch, n, me), not_free[me], keep, 1,
             )  # fmt: skip
             _atomic_add(sync, mine + SYNC_AHEAD, taken)
             ahead = taken > 0  # else its first batch is all taken
@@ -576,7 +581,7 @@ def _final_share(
         both, order, later, keep = _prepared(out, n, w, resolution, max_deviation)
     N, L = both.shape[0], later.shape[0]
     c = _counters(n, w)
-    e = epoch + w * stride
+    e = _stamps(epoch, n, w)
     _scan_shared(
         both, order, 0, sync, c, SYNC_NEXT, SYNC_CHECKED, chunk, sc, e, not_free[w], keep, N,
     )  # fmt: skip
