@@ -582,3 +582,91 @@ def test_the_final_check_takes_the_states_the_searches_threads_found_not_free(wa
             assert outs[0][-1] != 0
             compared += 1
     assert compared >= 3 and stretches >= 1
+
+
+def test_the_searches_call_judges_and_mends_a_path_as_the_planner_would(walled):
+    """Where the searches' threads find states of the winner's path not FREE and none UNSURE
+    (past a wall the search's coarse steps skip over), the same kernel call judges the path as
+    the planner's final check and first repair would: the same path, mended by the same
+    detours (``repair_in`` with the same seed, on the segments ``validate_path`` finds
+    colliding), with the same corner deviation; checked from scratch, its segments are FREE
+    at the final resolution and its corners are rounded exactly when their arcs are FREE."""
+    from robocell.planning import _kernels as PK
+    from robocell.planning.planner import DETOUR_TRIES, _radii
+    from robocell.scene import _kernels as SK
+    from robocell.scene.checker import next_epoch
+
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    warm_up(checker)
+    inputs = checker.compiled_inputs
+    radii = _radii(DETOUR_TRIES)
+    verdicts = []
+    for seed in range(24):
+        outs = []
+        for detours in (None, radii):
+            edges = Edges(checker, 0.2)
+            path = rrt_connect_compiled(
+                edges, START, GOAL[None], arm.lower, arm.upper, Seeds(seed), 1e18, 0.5,
+                finish=Finish(1e18, 20, final_resolution=0.01, max_deviation=0.05,
+                              final_chunk=8, detour_radii=detours),
+            )  # fmt: skip
+            assert path is not None
+            outs.append((path, edges.stats))
+        (before, plain), (path, judged) = outs
+        assert plain.final_judged == PK.JUDGED_NOT  # without detour radii, nothing judged
+        verdicts.append(judged.final_judged)
+        known = plain.final_not_free
+        if judged.final_judged == PK.JUDGED_NOT:
+            assert np.array_equal(before, path)
+            assert judged.final_free == plain.final_free
+            if known is None or not set(np.unique(known)) <= {0, SK.HIT}:
+                continue  # FREE throughout, or not checked whole, or a state UNSURE
+            # else its detours failed: the planner's fail too (below)
+        else:
+            assert judged.final_not_free is None and not judged.final_free
+            assert known is not None and set(np.unique(known)) <= {0, SK.HIT}
+        # the planner's way: the final check proper, then the repair's detours with the seed
+        # the search's call drew after its searches' and shortcut's
+        states, segment, cls, _, _, arc_cls, _, _ = PK.validate_path(
+            before, 0.01, 0.05, True, inputs, next_epoch(1 << 40), 32, known
+        )  # fmt: skip
+        rows = PK.segment_hits(segment, cls == SK.HIT)
+        draws = Seeds(seed)  # the searches' two, the shortcut's, the detours'
+        mend_seed = [draws.next() for _ in range(4)][-1]
+        if len(rows) == 0:  # only arcs collide
+            assert judged.final_judged == PK.JUDGED and np.array_equal(path, before)
+            assert judged.final_deviation == (0.0 if (arc_cls == SK.HIT).any() else 0.05)
+            continue
+        near = np.stack([states[rows[:, c]] for c in (1, 2, 3)], axis=1)
+        ok, mended, *_ = PK.repair_in(
+            before, rows[:, 0].copy(), near, arm.lower, arm.upper, radii, mend_seed, 0.01, 0.05,
+            inputs, next_epoch(1 << 40), 32,
+        )  # fmt: skip
+        assert ok == (judged.final_judged != PK.JUDGED_NOT)
+        if not ok:
+            continue
+        assert judged.final_judged == PK.JUDGED_MENDED
+        assert np.array_equal(path, mended)
+        # from scratch: the detours' segments free (exactly), the corners as judged
+        vias = [q for q in path if not _on_path(before, q)]
+        assert vias
+        fine = Edges(checker, 0.01)
+        for a, b in zip(path[:-1], path[1:], strict=True):
+            if any(np.array_equal(v, a) or np.array_equal(v, b) for v in vias):
+                assert not checker.check(fine.states(a, b, include_start=True)).any()
+        *_, arc_cls, _, _ = PK.validate_path(
+            path, 0.01, 0.05, False, inputs, next_epoch(1 << 40), 32, NOTHING_CHECKED
+        )  # fmt: skip
+        assert judged.final_deviation == (0.05 if (arc_cls == SK.FREE).all() else 0.0)
+    assert {PK.JUDGED_MENDED, PK.JUDGED_NOT} <= set(verdicts)
+
+
+def _on_path(path, q):
+    """Whether configuration q lies on one of the path's straight segments."""
+    for a, b in zip(path[:-1], path[1:], strict=True):
+        d = b - a
+        t = np.clip(np.dot(q - a, d) / max(np.dot(d, d), 1e-300), 0.0, 1.0)
+        if np.linalg.norm(a + t * d - q) < 1e-9:
+            return True
+    return False

@@ -608,6 +608,15 @@ def _prepared(out, n, i, resolution, max_deviation):  # type: ignore[no-untyped-
     return both, order, later, both.shape[0] + later.shape[0] <= not_free.shape[1]
 
 
+@njit(cache=True, **SK.NRT_OFF)
+def _scanned_class(sc, k):  # type: ignore[no-untyped-def]
+    """The class :func:`SK.scan` gave state k of its last call on scanner ``sc``, where it
+    stopped (the first state not FREE: HIT or UNSURE)."""
+    _, work = SK._scanner_fields(sc)
+    out = work[9]
+    return out[k % out.shape[0]]
+
+
 @njit(cache=True, inline="always")
 def _scan_shared(
     qs, order, base, sync, c, counter, checked, chunk, sc, epoch, not_free, keep, most
@@ -615,8 +624,9 @@ def _scan_shared(
     """:func:`_final_share`'s scan of ``qs``: at most ``most`` chunks of ``chunk`` states
     taken in turn from the shared counter ``sync[c + counter]``, each scanned whole (stamps
     ``epoch`` + the row): the states not FREE counted in ``sync[c + SYNC_BAD]`` and, if
-    ``keep``, marked in ``not_free`` at ``base + order[row]``; the states checked counted in
-    ``sync[c + checked]``. Returns how many chunks it took."""
+    ``keep``, marked with their class (HIT or UNSURE) in ``not_free`` at ``base +
+    order[row]``; the states checked counted in ``sync[c + checked]``. Returns how many
+    chunks it took."""
     N = qs.shape[0]
     taken = 0
     while taken < most:
@@ -630,10 +640,10 @@ def _scan_shared(
             k = SK.scan(qs[s:c1], c1 - s, sc, epoch + s)
             if s + k >= c1:
                 break
-            # state s + k is not FREE: noted, and the scan goes on after it
+            # state s + k is not FREE: noted with its class, and the scan goes on after it
             _atomic_add(sync, c + SYNC_BAD, 1)
             if keep:
-                not_free[base + order[s + k]] = 1
+                not_free[base + order[s + k]] = _scanned_class(sc, k)
             s += k + 1
         _atomic_add(sync, c + checked, c1 - c0)
     return taken
@@ -797,7 +807,7 @@ def plan_in(
     start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
     first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_seed, shortcut_deadline,
     shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain, check_ends,
-    final_resolution, max_deviation, final_chunk, omp,
+    final_resolution, max_deviation, final_chunk, omp, mend_radii, mend_seed,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A plan's search in one call: the searches of
     :func:`robocell.planning.rrt.rrt_connect_compiled`, then (``shortcut_tries`` > 0) the
@@ -829,14 +839,18 @@ def plan_in(
     winner's shortcut path together as the final check classifies it first, in chunks of
     ``final_chunk`` states (:func:`_final_share`, stamps from ``epoch + (n + 2)·2**40``,
     search i's path from i/n of the way on; ``concurrent``: each search has a thread of its
-    own).
+    own). Where they found states not FREE, and none UNSURE, the calling thread then judges
+    the path as the planner would, mending its colliding segments by detours (radii
+    ``mend_radii``, none: not judged; seeds from ``mend_seed``; stamps from ``epoch + (n +
+    3)·2**40``): :func:`_judged`.
 
-    Returns the path (the winner's, or search 0's if none found one), the search's status
-    and stats (:func:`rrt_connect`), the states the shortcut checked, whether that check
-    found every state FREE (then the final check's answer is FREE too; else the caller runs
-    the final check proper, :func:`validate_path`, for where and why), and which states it
-    found not FREE, ``validate_path``'s ``known`` (empty if it did not check the path
-    whole). With the final check
+    Returns the path (the winner's, or search 0's if none found one; mended if judged so),
+    the search's status and stats (:func:`rrt_connect`), the states the shortcut checked,
+    whether that check found every state FREE (then the final check's answer is FREE too),
+    which states it found not FREE (their classes: ``validate_path``'s ``known``; empty if
+    it did not check the path whole, or judged it), and :func:`_judged`'s verdict and
+    corner deviation (JUDGED_NOT: the caller runs the final check proper,
+    :func:`validate_path`, for where and why). With the final check
     proper in this call (session 16), on the checker's parallel classifier, this kernel took
     220 s to compile instead of about 130, and the first run, which compiles it in a second
     process (planning.precompile), 250 s instead of 135 (measured); ``SK.scan`` is the
@@ -856,7 +870,10 @@ def plan_in(
         sc = SK.scanner(model, scratch, first_slot, ends.shape[0])
         if SK.scan(ends, ends.shape[0], sc, epoch + ((n + 1) << 40)) < ends.shape[0]:
             nothing = np.zeros(0, np.int8)
-            return np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0, False, nothing
+            return (
+                np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0, False, nothing,
+                JUDGED_NOT, max_deviation,
+            )  # fmt: skip
     box_lo = np.empty(dof)
     box_hi = np.empty(dof)
     for j in range(dof):
@@ -913,10 +930,19 @@ def plan_in(
     whole = shortened[best] and N > 0 and sync[c + SYNC_CHECKED] == N
     free = whole and sync[c + SYNC_BAD] == 0
     kept = whole and not free and N + L <= not_free.shape[1]
-    if kept and sync[c + SYNC_LATER_CHECKED] == L:
+    whole_later = sync[c + SYNC_LATER_CHECKED] == L
+    if kept and whole_later:
         N += L  # the corners' stretches too
     known = not_free[best, : N if kept else 0].copy()
-    return path, statuses[best], stats[best].copy(), shortcut_states, free, known
+    judged, dev = JUDGED_NOT, max_deviation
+    if kept and whole_later and mend_radii.shape[0] > 0:
+        judged, path, dev = _judged(
+            path, known, final_resolution, max_deviation, lower, upper, mend_radii, mend_seed,
+            model, scratch, epoch + ((n + 3) << 40),
+        )  # fmt: skip
+        if judged != JUDGED_NOT:
+            known = known[:0]
+    return path, statuses[best], stats[best].copy(), shortcut_states, free, known, judged, dev
 
 
 @njit(cache=True)
@@ -1106,7 +1132,7 @@ def _final_check(
 def _classify_first(both, first, on, cls, flags, model, scratch, epoch, chunk, known):  # type: ignore[no-untyped-def]
     """:func:`_final_check`'s first batch (the states of ``both`` in the runs ``first``) into
     ``cls`` and ``flags``, and the states of the runs ``on`` where known. ``known``: which
-    states the searches' threads found not FREE (1; 0: FREE), one entry per state of the
+    states the searches' threads found not FREE (their class; 0: FREE), one entry per state of the
     first batch in its order, then, if they checked them, per state of ``on``'s runs
     (empty: none checked). Those are classified again, for their class and unsure pairs;
     without ``known``, the whole first batch is classified. Returns how many states it
@@ -1258,22 +1284,13 @@ def segment_hits(segment, hit):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def repair_in(
-    path, segments, near, lower, upper, radii, seed, resolution, max_deviation, inputs, epoch,
-    chunk,
-):  # type: ignore[no-untyped-def]  # fmt: skip
-    """The mending of a path's colliding segments and the check of the mended path's corners,
-    in one call (the planner's first repair: ``Planner._repair`` does the same detours, then
-    searches where they fail). Segment ``segments[h]`` (increasing) collides first at
-    ``near[h, 0]``, between the free states ``near[h, 1]`` and ``near[h, 2]``: the stretch
-    between those is replaced by a detour (:func:`detour`, seed ``seed`` + 2h), else the whole
-    segment by one (seed + 2h + 1).
-
-    Returns (whether every segment was mended, the mended path (the path if not), the first
-    segment that was not or −1, the epochs used, and :func:`_final_check`'s outputs for the
-    mended path's corners: its segments are free at ``resolution`` already, the states kept
-    from the path checked before and the detours' by them)."""
-    model, scratch = inputs.model, inputs.scratch
+def _detoured(path, segments, near, lower, upper, radii, seed, resolution, model, scratch, epoch):  # type: ignore[no-untyped-def]
+    """The path with its colliding segments mended by detours: segment ``segments[h]``
+    (increasing) collides first at ``near[h, 0]``, between the free states ``near[h, 1]`` and
+    ``near[h, 2]``; the stretch between those is replaced by a detour (:func:`detour`, seed
+    ``seed`` + 2h), else the whole segment by one (seed + 2h + 1). Returns (whether every
+    segment was mended, the mended path (the path if not), the first segment that was not or
+    −1, the epochs used)."""
     n, dof = path.shape
     out = np.empty((n + 3 * segments.shape[0], dof))
     out[0] = path[0]
@@ -1309,14 +1326,117 @@ def repair_in(
                 mended = True
                 break
         if not mended:
-            checked = _final_check(
-                path[:2], resolution, 0.0, False, model, scratch, epoch, chunk, np.zeros(0, np.int8)
-            )  # fmt: skip
-            return False, path, k, used, checked
+            return False, path, k, used
         h += 1
-    new = out[:m].copy()
+    return True, out[:m].copy(), -1, used
+
+
+@njit(cache=True)
+def repair_in(
+    path, segments, near, lower, upper, radii, seed, resolution, max_deviation, inputs, epoch,
+    chunk,
+):  # type: ignore[no-untyped-def]  # fmt: skip
+    """The mending of a path's colliding segments and the check of the mended path's corners,
+    in one call (the planner's first repair: ``Planner._repair`` does the same detours, then
+    searches where they fail): :func:`_detoured`.
+
+    Returns (whether every segment was mended, the mended path (the path if not), the first
+    segment that was not or −1, the epochs used, and :func:`_final_check`'s outputs for the
+    mended path's corners: its segments are free at ``resolution`` already, the states kept
+    from the path checked before and the detours' by them)."""
+    model, scratch = inputs.model, inputs.scratch
+    ok, new, k, used = _detoured(
+        path, segments, near, lower, upper, radii, seed, resolution, model, scratch, epoch
+    )  # fmt: skip
+    if not ok:
+        checked = _final_check(
+            path[:2], resolution, 0.0, False, model, scratch, epoch, chunk, np.zeros(0, np.int8)
+        )  # fmt: skip
+        return False, path, k, used, checked
     checked = _final_check(
         new, resolution, max_deviation, False, model, scratch, epoch + used, chunk,
         np.zeros(0, np.int8),
     )  # fmt: skip
     return True, new, -1, used, checked
+
+
+# what _judged settled in the searches' kernel call (plan_in): nothing (the planner's final
+# check proper decides), the path as it is, the path mended by detours, or the path mended
+# with its corners left to the planner's check (a state of their arcs UNSURE)
+JUDGED_NOT, JUDGED, JUDGED_MENDED, MENDED_CORNERS_OPEN = 0, 1, 2, 3
+
+
+@njit(cache=True)
+def _judged(
+    path, marks, resolution, max_deviation, lower, upper, radii, seed, model, scratch, epoch
+):  # type: ignore[no-untyped-def]
+    """The planner's judgement of a path the searches' threads checked whole and found not
+    FREE throughout (``marks``: the class of each state the final check classifies, in its
+    order: :func:`_final_share`), made in their kernel call when no state is UNSURE (coal
+    would settle those, in Python): where segments collide, they are mended by detours
+    (:func:`_detoured`, as ``Planner._mend`` does first) and the mended path's corners are
+    checked; where only the corners' arcs collide, the corners stay sharp. Returns (one of
+    JUDGED_*, the path (mended or not), the corners' deviation to execute it with).
+
+    Until session 37 such a plan went back to Python for the final check proper and the
+    repair, two kernel calls more on cold code: 15 of 50 Panda table_under_pick plans, whose
+    median was 1.65 ms against 0.97 for the plans found free (their final check proper took
+    110–240 µs, the repair 140–440). Session 38, both ways alternating in one process, each
+    plan after an ``ompl`` plan (50 problems × 2–3), medians in ms: Panda table_under_pick
+    2.09 → 1.76 and 1.78 → 1.56, table_pick 1.03 → 0.90 and 0.95 → 0.89, box 1.65 → 1.45;
+    UR5 table_under_pick 2.28 → 2.10, table_pick 1.08 → 0.96; the same paths (mean lengths
+    equal, as many repaired)."""
+    states, segment, arcs, off, on = _final_states(path, resolution, max_deviation, True)
+    n_off = 0
+    for r in range(off.shape[0]):
+        n_off += off[r, 1] - off[r, 0]
+    n_on = 0
+    for r in range(on.shape[0]):
+        n_on += on[r, 1] - on[r, 0]
+    A = arcs.shape[0]
+    if marks.shape[0] != n_off + A + n_on:
+        return JUDGED_NOT, path, max_deviation
+    hit = np.zeros(states.shape[0], np.bool_)
+    arc_hit = False
+    i = 0
+    for part in range(3):
+        runs = off if part == 0 else on
+        if part == 1:  # the arcs, between the two
+            for _ in range(A):
+                if marks[i] == SK.UNSURE:
+                    return JUDGED_NOT, path, max_deviation
+                arc_hit = arc_hit or marks[i] == SK.HIT
+                i += 1
+            continue
+        for r in range(runs.shape[0]):
+            for s in range(runs[r, 0], runs[r, 1]):
+                if marks[i] == SK.UNSURE:
+                    return JUDGED_NOT, path, max_deviation
+                hit[s] = marks[i] == SK.HIT
+                i += 1
+    rows = segment_hits(segment, hit)
+    if rows.shape[0] == 0:
+        # the segments are free whole: the corners stay sharp where an arc collides
+        return JUDGED, path, 0.0 if arc_hit else max_deviation
+    near = np.empty((rows.shape[0], 3, path.shape[1]))
+    for h in range(rows.shape[0]):
+        for c in range(3):
+            near[h, c] = states[rows[h, c + 1]]
+    ok, new, _, used = _detoured(
+        path, rows[:, 0].copy(), near, lower, upper, radii, seed, resolution, model, scratch,
+        epoch,
+    )  # fmt: skip
+    if not ok:
+        return JUDGED_NOT, path, max_deviation
+    # the mended path's segments are free at the resolution: its corners decide
+    _, _, arcs, _, _ = _final_states(new, resolution, max_deviation, False)
+    A = arcs.shape[0]
+    if A == 0:
+        return JUDGED_MENDED, new, max_deviation
+    sc = SK.scanner(model, scratch, 0, A)
+    k = SK.scan(arcs, A, sc, epoch + used)
+    if k == A:
+        return JUDGED_MENDED, new, max_deviation
+    if _scanned_class(sc, k) == SK.HIT:
+        return JUDGED_MENDED, new, 0.0
+    return MENDED_CORNERS_OPEN, new, max_deviation

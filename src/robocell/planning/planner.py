@@ -232,16 +232,26 @@ class Planner:
                 # proven free as it will be executed, corners rounded: the discrete final
                 # check would add nothing (most paths); else it finds where, for a repair
                 first = self._swept(checker, path, cfg.max_deviation, stats)
+            judged = edges.stats.final_judged if shortened else PK.JUDGED_NOT
             if (first is not None and first.free) or (shortened and edges.stats.final_free):
                 # proven free, or every state the final check classifies first is FREE,
                 # found by the searches' threads in their kernel call (_kernels._final_share)
                 ok, dev, bad = True, cfg.max_deviation, _NONE
                 hits: dict[int, Hit] = {}
+            elif judged in (PK.JUDGED, PK.JUDGED_MENDED):
+                # not every state FREE, none UNSURE: judged in the same call, the colliding
+                # segments mended by detours (_kernels._judged)
+                ok, dev, bad, hits = True, edges.stats.final_deviation, _NONE, {}
+            elif judged == PK.MENDED_CORNERS_OPEN:
+                # mended there, a state of the corners' arcs unsure: coal settles them
+                ok, dev, bad, hits = self._validate(checker, path, True, chunk)
             else:
                 # the states the searches' threads checked are not checked again (None when
                 # they did not check this path: then it was not shortened in their call)
                 known = edges.stats.final_not_free
                 ok, dev, bad, hits = self._validate(checker, path, chunk=chunk, known=known)
+            if judged in (PK.JUDGED_MENDED, PK.MENDED_CORNERS_OPEN):
+                stats["repairs"] = stats.get("repairs", 0) + 1
             if not ok and native:
                 # repair the segments that collide between checked states, each by a detour
                 # or a search between its ends at the validation resolution, before
@@ -468,7 +478,7 @@ class Planner:
                         deadline, cfg.shortcut_tries, cfg.shortcut_share, cfg.shortcut_min_states,
                         cfg.shortcut_min_gain,
                         0.0 if cfg.continuous else cfg.validation_resolution,
-                        cfg.max_deviation, FINAL_CHUNK,
+                        cfg.max_deviation, FINAL_CHUNK, _radii(DETOUR_TRIES),
                     )  # fmt: skip
                 path = rrt_connect_compiled(
                     edges, start, goals, lo, hi, rng, soon, step, searches=cfg.searches,

@@ -91,8 +91,14 @@ class EdgeStats:
     final_free: bool = False
     # else, when they checked all of it: which of the states the final check classifies
     # first (then, when they checked them too, of the segments' stretches at the corners)
-    # they found not FREE, 1 (0: FREE), for it (_kernels.validate_path's ``known``)
+    # they found not FREE, by class (HIT or UNSURE; 0: FREE), for it (_kernels.validate_path's
+    # ``known``)
     final_not_free: NDArray[np.int8] | None = None
+    # else, when they found no state UNSURE (Finish.detour_radii): the path judged in their
+    # call (_kernels.JUDGED_*: JUDGED_NOT, or the path as it is, mended by detours, or mended
+    # with its corners left to the final check) and the corner deviation to execute it with
+    final_judged: int = 0
+    final_deviation: float = 0.0
 
 
 class Edges:
@@ -231,6 +237,10 @@ class Finish:
     final_resolution: float = 0.0
     max_deviation: float = 0.0
     final_chunk: int = 32
+    # where they found states not FREE (none UNSURE), the path judged in the same call, its
+    # colliding segments mended by detours of these radii (none: not judged):
+    # edges.stats.final_judged
+    detour_radii: NDArray[np.float64] | None = None
 
 
 def rrt_connect_compiled(
@@ -297,7 +307,10 @@ def rrt_connect_compiled(
     and side by side, the searches' threads then check it as the final check classifies it
     first (``_kernels._final_share``): ``edges.stats.final_free`` when every state is FREE,
     else the planner checks it (``_kernels.validate_path``), classifying again only the
-    states they found not FREE (``edges.stats.final_not_free``).
+    states they found not FREE (``edges.stats.final_not_free``). With ``finish.detour_radii``,
+    where no state was UNSURE, the path is judged and mended in the same call
+    (``_kernels._judged``): ``edges.stats.final_judged`` and ``final_deviation``; the path
+    returned is the mended one.
 
     ``check_ends``: the start and the goals are classified first, in the same call; if one
     is not FREE (in collision, or unsure near contact), nothing is searched, the result is
@@ -309,6 +322,10 @@ def rrt_connect_compiled(
     seeds = np.array([seed_of(rng) for _ in range(searches)], np.int64)
     finish = finish or Finish(deadline)
     shortcut_seed = seed_of(rng) if finish.tries > 0 else 0
+    radii = finish.detour_radii
+    if radii is None or not (finish.tries > 0 and finish.final_resolution > 0):
+        radii = _NO_RADII
+    mend_seed = seed_of(rng) if len(radii) else 0
     start = np.ascontiguousarray(start, dtype=float)
     goals = np.ascontiguousarray(goals, dtype=float)
     lower = np.ascontiguousarray(lower, dtype=float)
@@ -316,17 +333,19 @@ def rrt_connect_compiled(
     with _SEARCH_LOCK:
         if side_by_side is None:
             side_by_side = searches > 1 and _threadsafe_layer()
-        path, status, st, shortcut_states, free, known = PK.plan_in(
+        path, status, st, shortcut_states, free, known, judged, dev = PK.plan_in(
             start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
-            next_epoch((searches + 3) << 40), cap, first_slot, box_margin, box_share,
+            next_epoch((searches + 4) << 40), cap, first_slot, box_margin, box_share,
             whole_for, side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
             finish.min_states, float(finish.min_gain), check_ends,
             float(finish.final_resolution), float(finish.max_deviation),
-            int(finish.final_chunk), _omp(),
+            int(finish.final_chunk), _omp(), radii, mend_seed,
         )  # fmt: skip
     edges.stats.blocked_ends = status == PK.BLOCKED
     edges.stats.final_free = bool(free)
     edges.stats.final_not_free = known if len(known) else None
+    edges.stats.final_judged = int(judged)
+    edges.stats.final_deviation = float(dev)
     edges.stats.iterations += int(st[0])
     edges.stats.nodes = int(st[1])
     edges.stats.states += int(st[3]) + int(shortcut_states)
@@ -433,14 +452,15 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     for side_by_side in (True, False):
         PK.plan_in(
             q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
-            inputs, next_epoch((SEARCH_SLOTS + 3) << 40), 16,
+            inputs, next_epoch((SEARCH_SLOTS + 4) << 40), 16,
             scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, 40, side_by_side, 0, 0.0, 1, 0.5, 1,
-            0.0, False, 0.01, 0.05, 32, False,
+            0.0, False, 0.01, 0.05, 32, False, np.zeros(1), 0,
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1, 0.0)
     _WARM[0] = not searches_only
 
 
+_NO_RADII = np.zeros(0)  # Finish.detour_radii: the path not judged in the search's call
 NOTHING_CHECKED = np.zeros(0, np.int8)  # validate_path's ``known``: no state checked before
 
 
