@@ -102,7 +102,8 @@ def test_seeded_planning_is_reproducible(walled):
 def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path(walled):
     """After the process rested, the kernel's sleeping threads are slow to wake: a plan then
     runs its searches one after the other and its final check in the calling thread, and
-    finds the same path as a plan made while the process is busy (searches side by side)."""
+    finds the same path as a plan made while the process is busy (searches side by side),
+    mended by the same detours."""
     import time
 
     import robocell.planning.planner as planner_module
@@ -129,7 +130,7 @@ def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path
     p = Planner(walled)
     request = MotionPlanRequest("arm", JointGoal(GOAL), start=START, seed=9, planning_time=60)
     p.plan(request)  # kernels compiled or loaded (warm_up's own calls are not the plan's)
-    paths = []
+    paths, repairs = [], []
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(planner_module, "rrt_connect_compiled", spy_search)
         mp.setattr(planner_module.PK, "validate_path", spy_validate)
@@ -137,14 +138,17 @@ def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path
         for rest in (time.sleep, busy):
             threads_rested()
             rest(0.06)
-            paths.append(p.plan(request).path)
+            plan = p.plan(request)
+            paths.append(plan.path)
+            repairs.append(plan.stats.get("repairs", 0))
             seen.append(set(calls))  # (a repair validates once more)
             calls.clear()
-    assert seen == [
-        {("side_by_side", False), ("chunk", REST_CHUNK)},
-        {("side_by_side", None), ("chunk", planner_module.FINAL_CHUNK)},
-    ]
+    # busy, the searches' threads check the path, and judge and mend it where they find
+    # states not FREE (none UNSURE); the planner checks it only if they could not
+    assert seen[0] == {("side_by_side", False), ("chunk", REST_CHUNK)}
+    assert seen[1] - {("chunk", planner_module.FINAL_CHUNK)} == {("side_by_side", None)}
     assert np.array_equal(paths[0], paths[1])
+    assert repairs == [1, 1]  # mended by the same detours, in Python and in the kernel call
 
 
 def test_pose_goal_reaches_the_pose(walled):

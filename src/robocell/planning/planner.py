@@ -256,7 +256,11 @@ class Planner:
                 # repair the segments that collide between checked states, each by a detour
                 # or a search between its ends at the validation resolution, before
                 # replanning it all
-                mended = self._mend(checker, path, group, rng, deadline, hits, chunk)
+                # the detours' seed the searches' call drew for them (a plan after a rest
+                # mends here what a busy one mends in that call: the same path)
+                mended = self._mend(
+                    checker, path, group, rng, deadline, hits, chunk, edges.stats.detour_seed
+                )
                 if mended is not None:
                     path, (ok, dev, bad, _) = mended
                     stats["repairs"] = stats.get("repairs", 0) + 1
@@ -532,6 +536,7 @@ class Planner:
         deadline: float,
         hits: dict[int, Hit],
         chunk: int,
+        seed: int | None = None,
     ) -> tuple[NDArray[np.float64], tuple[bool, float, NDArray[np.float64], dict[int, Hit]]] | None:
         """:meth:`_repair` of the segments ``hits`` names, and :meth:`_validate`'s answer for
         the mended path (its segments checked by the repair: the corners decide): (path,
@@ -541,14 +546,15 @@ class Planner:
         between them called one by one from Python (session 26, each plan after an ``ompl``
         plan, 3 × 50 problems, both alternating): repaired plans' median 1.80 against 1.90
         ms on the Panda's table_under_pick (39 of 150 plans repaired), 1.52 against 1.62 ms
-        on table_pick (22 of 150)."""
+        on table_pick (22 of 150). ``seed``: the detours' (else drawn from ``rng``)."""
         ks = np.array(sorted(hits), np.int64)
         near = np.array([hits[k] for k in ks.tolist()])
         ok, mended, _, _, checked = PK.repair_in(
             np.ascontiguousarray(path, dtype=float), ks, near,
             np.ascontiguousarray(group.lower, dtype=float),
             np.ascontiguousarray(group.upper, dtype=float),
-            _radii(DETOUR_TRIES), seed_of(rng), self.config.validation_resolution,
+            _radii(DETOUR_TRIES), seed_of(rng) if seed is None else seed,
+            self.config.validation_resolution,
             self.config.max_deviation, checker.compiled_inputs, next_epoch(1 << 40), chunk,
         )  # fmt: skip
         if ok:

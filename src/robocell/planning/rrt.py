@@ -99,6 +99,9 @@ class EdgeStats:
     # with its corners left to the final check) and the corner deviation to execute it with
     final_judged: int = 0
     final_deviation: float = 0.0
+    # the seed rrt_connect_compiled drew for those detours (Finish.detour_radii), whether or
+    # not its call judged the path: the planner's own repair takes it (the same path)
+    detour_seed: int | None = None
 
 
 class Edges:
@@ -326,6 +329,7 @@ def rrt_connect_compiled(
     if radii is None or not (finish.tries > 0 and finish.final_resolution > 0):
         radii = _NO_RADII
     mend_seed = seed_of(rng) if len(radii) else 0
+    edges.stats.detour_seed = mend_seed if len(radii) else None
     start = np.ascontiguousarray(start, dtype=float)
     goals = np.ascontiguousarray(goals, dtype=float)
     lower = np.ascontiguousarray(lower, dtype=float)
