@@ -991,14 +991,20 @@ def segment_states(path, resolution):  # type: ignore[no-untyped-def]
     return states, segment
 
 
+@njit(cache=True, inline="always")
+def _run_states(runs):  # type: ignore[no-untyped-def]
+    """How many states the runs [s0, s1) of ``runs`` (R, 2) hold."""
+    total = 0
+    for r in range(runs.shape[0]):
+        total += runs[r, 1] - runs[r, 0]
+    return total
+
+
 @njit(cache=True)
 def _gathered(qs, runs, extra):  # type: ignore[no-untyped-def]
     """The states of ``qs`` in the runs [s0, s1) of ``runs`` (R, 2), in one array, with
     ``extra`` rows left after them."""
-    total = 0
-    for r in range(runs.shape[0]):
-        total += runs[r, 1] - runs[r, 0]
-    batch = np.empty((total + extra, qs.shape[1]))
+    batch = np.empty((_run_states(runs) + extra, qs.shape[1]))
     row = 0
     for r in range(runs.shape[0]):
         for s in range(runs[r, 0], runs[r, 1]):
@@ -1137,12 +1143,8 @@ def _classify_first(both, first, on, cls, flags, model, scratch, epoch, chunk, k
     (empty: none checked). Those are classified again, for their class and unsure pairs;
     without ``known``, the whole first batch is classified. Returns how many states it
     classified, and whether ``on``'s states are classified too."""
-    n_first = 0
-    for r in range(first.shape[0]):
-        n_first += first[r, 1] - first[r, 0]
-    n_on = 0
-    for r in range(on.shape[0]):
-        n_on += on[r, 1] - on[r, 0]
+    n_first = _run_states(first)
+    n_on = _run_states(on)
     if known.shape[0] != n_first and known.shape[0] != n_first + n_on:
         return _classify_runs(both, first, cls, flags, model, scratch, epoch, chunk), False
     parts = 2 if known.shape[0] == n_first + n_on else 1
@@ -1387,14 +1389,8 @@ def _judged(
     UR5 table_under_pick 2.28 → 2.10, table_pick 1.08 → 0.96; the same paths (mean lengths
     equal, as many repaired)."""
     states, segment, arcs, off, on = _final_states(path, resolution, max_deviation, True)
-    n_off = 0
-    for r in range(off.shape[0]):
-        n_off += off[r, 1] - off[r, 0]
-    n_on = 0
-    for r in range(on.shape[0]):
-        n_on += on[r, 1] - on[r, 0]
     A = arcs.shape[0]
-    if marks.shape[0] != n_off + A + n_on:
+    if marks.shape[0] != _run_states(off) + A + _run_states(on):
         return JUDGED_NOT, path, max_deviation
     hit = np.zeros(states.shape[0], np.bool_)
     arc_hit = False

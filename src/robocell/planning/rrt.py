@@ -328,8 +328,7 @@ def rrt_connect_compiled(
     radii = finish.detour_radii
     if radii is None or not (finish.tries > 0 and finish.final_resolution > 0):
         radii = _NO_RADII
-    mend_seed = seed_of(rng) if len(radii) else 0
-    edges.stats.detour_seed = mend_seed if len(radii) else None
+    edges.stats.detour_seed = seed_of(rng) if len(radii) else None
     start = np.ascontiguousarray(start, dtype=float)
     goals = np.ascontiguousarray(goals, dtype=float)
     lower = np.ascontiguousarray(lower, dtype=float)
@@ -343,7 +342,7 @@ def rrt_connect_compiled(
             whole_for, side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
             finish.min_states, float(finish.min_gain), check_ends,
             float(finish.final_resolution), float(finish.max_deviation),
-            int(finish.final_chunk), _omp(), radii, mend_seed,
+            int(finish.final_chunk), _omp(), radii, edges.stats.detour_seed or 0,
         )  # fmt: skip
     edges.stats.blocked_ends = status == PK.BLOCKED
     edges.stats.final_free = bool(free)
