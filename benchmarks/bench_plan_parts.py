@@ -45,13 +45,13 @@ from robocell.planning.rrt import warm_up
 from robocell.scene.checker import next_epoch
 
 # plan_in's arguments by position (see its signature)
-SEEDS, DEADLINE, EPOCH, SIDE_BY_SIDE = 4, 5, 9, 15
+SEARCHES, DEADLINE, EPOCH, SIDE_BY_SIDE = 5, 6, 10, 16
 SHORTCUT_DEADLINE, SHORTCUT_TRIES, CHECK_ENDS, FINAL_RESOLUTION = 17, 18, 22, 23
 VARIANTS = {
     "whole": {},
     "no final": {FINAL_RESOLUTION: 0.0},
     "no shortcut": {SHORTCUT_TRIES: 0, FINAL_RESOLUTION: 0.0},
-    "one search": {SEEDS: "first", SIDE_BY_SIDE: False, FINAL_RESOLUTION: 0.0},
+    "one search": {SEARCHES: 1, SIDE_BY_SIDE: False, FINAL_RESOLUTION: 0.0},
     "ends known": {CHECK_ENDS: False},
 }
 
@@ -111,7 +111,7 @@ def main() -> None:
                 Planner(scene, baseline).plan(request(planner_id))
                 b = list(a)
                 for i, v in VARIANTS[name].items():
-                    b[i] = a[SEEDS][:1].copy() if v == "first" else v
+                    b[i] = v
                 now = time.perf_counter()
                 b[DEADLINE] = b[SHORTCUT_DEADLINE] = now + 1.0
                 b[EPOCH] = next_epoch(1 << 44)

@@ -268,6 +268,20 @@ def test_validation_checks_the_corners_as_they_will_be_executed(walled):
     assert compared > 5
 
 
+def test_the_kernel_draws_the_seeds_the_stream_would():
+    """The compiled SplitMix64 step gives the seeds and states of Seeds.next, across the
+    whole 64-bit range of states (uint64 arithmetic wraps as Python's masked ints do)."""
+    from robocell.planning._kernels import _next_seed
+
+    for seed in (0, 1, 7, 123456789, 2**63 - 5, 2**64 - 1):
+        stream = Seeds(seed)
+        state = stream.state
+        for _ in range(40):
+            state, drawn = _next_seed(np.uint64(state))
+            assert int(drawn) == stream.next() and int(state) == stream.state
+            assert 0 <= int(drawn) < 2**31
+
+
 def test_searches_side_by_side_return_the_least_work_one(walled):
     """Two compiled searches run side by side (the kernel's threads) and the one whose path
     took the least work wins, whatever the scheduling: the same path as the better of the two
@@ -282,7 +296,8 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
     slot = scratch[0].shape[0] - SEARCH_SLOTS
     winners = set()
     for seed in range(6):
-        seeds = np.random.default_rng(seed).integers(2**31, size=2)
+        stream = Seeds(seed)  # the plan's stream: the call draws the searches' seeds from it
+        seeds = [stream.next(), stream.next()]
         alone = []
         for s in seeds:  # each seed on its own: its path and its work
             found = np.full(1, np.iinfo(np.int64).max, np.int64)
@@ -297,11 +312,13 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
         winners.add(best)
         for _ in range(3):
             edges = Edges(checker, 0.05)
-            rng = np.random.default_rng(seed)
+            rng = Seeds(seed)
             path = rrt_connect_compiled(
                 edges, START, GOAL[None], arm.lower, arm.upper, rng, 1e18, 0.5, box_share=0.0
             )
             assert np.array_equal(path, alone[best][1])
+            assert rng.state == stream.state  # it drew as many seeds as the searches'
+
     assert winners == {0, 1}  # either seed won, in some problem
 
 

@@ -183,6 +183,22 @@ def _work(stats, scratch, slot, placed_before):  # type: ignore[no-untyped-def]
     return stats[4]
 
 
+# SplitMix64's constants (rrt.Seeds)
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+
+
+@njit(cache=True, inline="always")
+def _next_seed(state):  # type: ignore[no-untyped-def]
+    """:meth:`robocell.planning.rrt.Seeds.next` in compiled code: the stream's next state
+    (uint64) and its seed, in [0, 2**31)."""
+    state = state + _GOLDEN
+    z = (state ^ (state >> np.uint64(30))) * _MIX1
+    z = (z ^ (z >> np.uint64(27))) * _MIX2
+    return state, np.int64((z ^ (z >> np.uint64(31))) >> np.uint64(33))
+
+
 @njit(cache=True)
 def _nearest(Q, n, q):  # type: ignore[no-untyped-def]
     best, arg = np.inf, 0
@@ -804,19 +820,25 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, ep
 # instead of the model's and the scratch's 69 arrays: see SK.KernelInputs).
 @njit(cache=True, nogil=True)
 def plan_in(
-    start, goals, lower, upper, seeds, deadline, resolution, step, inputs, epoch, cap,
-    first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_seed, shortcut_deadline,
+    start, goals, lower, upper, stream, searches, deadline, resolution, step, inputs, epoch,
+    cap, first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_deadline,
     shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain, check_ends,
-    final_resolution, max_deviation, final_chunk, omp, mend_radii, mend_seed,
+    final_resolution, max_deviation, final_chunk, omp, mend_radii,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A plan's search in one call: the searches of
     :func:`robocell.planning.rrt.rrt_connect_compiled`, then (``shortcut_tries`` > 0) the
-    winner's path shortened by :func:`shortcut` (seed ``shortcut_seed``, until
-    ``shortcut_deadline``, checking at most ``shortcut_share`` of the states the search
-    checked and at least ``shortcut_min``; shortcuts that gain less than the share
-    ``shortcut_min_gain`` not checked).
+    winner's path shortened by :func:`shortcut` (until ``shortcut_deadline``, checking at
+    most ``shortcut_share`` of the states the search checked and at least ``shortcut_min``;
+    shortcuts that gain less than the share ``shortcut_min_gain`` not checked).
 
-    The searches: one per seed of ``seeds``, side by side on the kernel's threads
+    The seeds come from the plan's stream (:class:`robocell.planning.rrt.Seeds`, its state
+    ``stream``, uint64), in the order the planner drew them in Python until session 39: one
+    per search, then the shortcut's (if ``shortcut_tries`` > 0), then the detours' (if
+    ``mend_radii``). Those draws, the list of seeds and its array took 18 µs of Python on a
+    plan's cold caches (Panda table_pick after an ``ompl`` plan, measured); here they take
+    nanoseconds.
+
+    The searches (``searches`` of them): side by side on the kernel's threads
     (:func:`rrt_connect_many`) or one after the other (each later one stops once it has done
     more work than an earlier one that found a path, so that the same one wins), search i on
     scratch slot ``first_slot + i`` from stamp ``epoch + i·2**40``. Samples come from the box
@@ -841,24 +863,34 @@ def plan_in(
     search i's path from i/n of the way on; ``concurrent``: each search has a thread of its
     own). Where they found states not FREE, and none UNSURE, the calling thread then judges
     the path as the planner would, mending its colliding segments by detours (radii
-    ``mend_radii``, none: not judged; seeds from ``mend_seed``; stamps from ``epoch + (n +
+    ``mend_radii``, none: not judged; seeded from the stream; stamps from ``epoch + (n +
     3)·2**40``): :func:`_judged`.
 
-    Returns the path (the winner's, or search 0's if none found one; mended if judged so),
-    the search's status and stats (:func:`rrt_connect`), the states the shortcut checked,
-    whether that check found every state FREE (then the final check's answer is FREE too),
-    which states it found not FREE (their classes: ``validate_path``'s ``known``; empty if
-    it did not check the path whole, or judged it), and :func:`_judged`'s verdict and
-    corner deviation (JUDGED_NOT: the caller runs the final check proper,
-    :func:`validate_path`, for where and why). With the final check
-    proper in this call (session 16), on the checker's parallel classifier, this kernel took
-    220 s to compile instead of about 130, and the first run, which compiles it in a second
-    process (planning.precompile), 250 s instead of 135 (measured); ``SK.scan`` is the
-    searches' own code. In session 30 the same scan after the race, in the calling thread
+    Returns the stream's state after its draws and the detours' seed (the planner's own
+    repair takes it when the path is not judged here), then the path (the winner's, or
+    search 0's if none found one; mended if judged so), the search's status and stats
+    (:func:`rrt_connect`), the states the shortcut checked, whether that check found every
+    state FREE (then the final check's answer is FREE too), which states it found not FREE
+    (their classes: ``validate_path``'s ``known``; empty if it did not check the path whole,
+    or judged it), and :func:`_judged`'s verdict and corner deviation (JUDGED_NOT: the
+    caller runs the final check proper, :func:`validate_path`, for where and why). With the
+    final check proper in this call (session 16), on the checker's parallel classifier, this
+    kernel took 220 s to compile instead of about 130, and the first run, which compiles it
+    in a second process (planning.precompile), 250 s instead of 135 (measured); ``SK.scan``
+    is the searches' own code. In session 30 the same scan after the race, in the calling thread
     alone, made plans slower: on two threads the final check took less."""
     model, scratch = inputs.model, inputs.scratch
     dof = start.shape[0]
-    n = seeds.shape[0]
+    n = searches
+    seeds = np.empty(n, np.int64)
+    for i in range(n):
+        stream, seeds[i] = _next_seed(stream)
+    shortcut_seed = np.int64(0)
+    if shortcut_tries > 0:
+        stream, shortcut_seed = _next_seed(stream)
+    mend_seed = np.int64(0)
+    if mend_radii.shape[0] > 0:
+        stream, mend_seed = _next_seed(stream)
     # each search has a thread of its own (numba's OpenMP layer gives each iteration of a
     # loop of at most its thread count one; TBB's may run them one after the other): asked
     # here, as numba.get_num_threads took 25 µs in Python on a plan's cold caches (measured)
@@ -871,8 +903,8 @@ def plan_in(
         if SK.scan(ends, ends.shape[0], sc, epoch + ((n + 1) << 40)) < ends.shape[0]:
             nothing = np.zeros(0, np.int8)
             return (
-                np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0, False, nothing,
-                JUDGED_NOT, max_deviation,
+                stream, mend_seed, np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0, False,
+                nothing, JUDGED_NOT, max_deviation,
             )  # fmt: skip
     box_lo = np.empty(dof)
     box_hi = np.empty(dof)
@@ -942,7 +974,10 @@ def plan_in(
         )  # fmt: skip
         if judged != JUDGED_NOT:
             known = known[:0]
-    return path, statuses[best], stats[best].copy(), shortcut_states, free, known, judged, dev
+    return (
+        stream, mend_seed, path, statuses[best], stats[best].copy(), shortcut_states, free, known,
+        judged, dev,
+    )  # fmt: skip
 
 
 @njit(cache=True)

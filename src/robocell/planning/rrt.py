@@ -34,17 +34,19 @@ class Seeds:
     other work (a scene loaded, physics stepped) has pushed it out: then creating one cost
     180 µs and a draw 75 µs (measured), a fifth of a Panda plan of 1.3 ms.
     :meth:`generator` gives a numpy Generator, seeded from the stream, for the steps in
-    Python. ``seed=None``: a seed of the operating system's."""
+    Python. ``seed=None``: a seed of the operating system's. ``state`` is the stream's state,
+    in [0, 2**64): a compiled step may draw from the stream itself and give back the state
+    it left (:func:`rrt_connect_compiled`; ``_kernels._next_seed`` is :meth:`next`)."""
 
     def __init__(self, seed: int | None) -> None:
-        self._state = int(seed) if seed is not None else random.SystemRandom().getrandbits(64)
-        self._state &= _MASK64
+        self.state = int(seed) if seed is not None else random.SystemRandom().getrandbits(64)
+        self.state &= _MASK64
         self._numpy: np.random.Generator | None = None
 
     def next(self) -> int:
         """The next seed, in [0, 2**31)."""
-        self._state = (self._state + 0x9E3779B97F4A7C15) & _MASK64
-        z = self._state
+        self.state = (self.state + 0x9E3779B97F4A7C15) & _MASK64
+        z = self.state
         z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & _MASK64
         z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & _MASK64
         return (z ^ (z >> 31)) >> 33
@@ -317,18 +319,21 @@ def rrt_connect_compiled(
 
     ``check_ends``: the start and the goals are classified first, in the same call; if one
     is not FREE (in collision, or unsure near contact), nothing is searched, the result is
-    None and ``edges.stats.blocked_ends`` is set: the caller checks them exactly."""
+    None and ``edges.stats.blocked_ends`` is set: the caller checks them exactly.
+
+    The seeds (one per search, then the shortcut's and the detours') are drawn in the call
+    from ``rng``'s stream, which it leaves as :meth:`Seeds.next` would have (a numpy
+    Generator seeds a stream with one draw of its own)."""
     _, scratch = edges.checker.kernel_inputs()  # type: ignore[attr-defined]
     inputs = edges.checker.compiled_inputs  # type: ignore[attr-defined]
     searches = max(1, min(searches, SEARCH_SLOTS))
     first_slot = scratch[0].shape[0] - SEARCH_SLOTS
-    seeds = np.array([seed_of(rng) for _ in range(searches)], np.int64)
+    # the kernel draws the searches', the shortcut's and the detours' seeds from the stream
+    stream = rng if isinstance(rng, Seeds) else Seeds(seed_of(rng))
     finish = finish or Finish(deadline)
-    shortcut_seed = seed_of(rng) if finish.tries > 0 else 0
     radii = finish.detour_radii
     if radii is None or not (finish.tries > 0 and finish.final_resolution > 0):
         radii = _NO_RADII
-    edges.stats.detour_seed = seed_of(rng) if len(radii) else None
     start = np.ascontiguousarray(start, dtype=float)
     goals = np.ascontiguousarray(goals, dtype=float)
     lower = np.ascontiguousarray(lower, dtype=float)
@@ -336,14 +341,18 @@ def rrt_connect_compiled(
     with _SEARCH_LOCK:
         if side_by_side is None:
             side_by_side = searches > 1 and _threadsafe_layer()
-        path, status, st, shortcut_states, free, known, judged, dev = PK.plan_in(
-            start, goals, lower, upper, seeds, deadline, edges.resolution, step, inputs,
-            next_epoch((searches + 4) << 40), cap, first_slot, box_margin, box_share,
-            whole_for, side_by_side, shortcut_seed, finish.deadline, finish.tries, finish.share,
-            finish.min_states, float(finish.min_gain), check_ends,
-            float(finish.final_resolution), float(finish.max_deviation),
-            int(finish.final_chunk), _omp(), radii, edges.stats.detour_seed or 0,
+        state, detour_seed, path, status, st, shortcut_states, free, known, judged, dev = (
+            PK.plan_in(
+                start, goals, lower, upper, np.uint64(stream.state), searches, deadline,
+                edges.resolution, step, inputs, next_epoch((searches + 4) << 40), cap,
+                first_slot, box_margin, box_share, whole_for, side_by_side, finish.deadline,
+                finish.tries, finish.share, finish.min_states, float(finish.min_gain),
+                check_ends, float(finish.final_resolution), float(finish.max_deviation),
+                int(finish.final_chunk), _omp(), radii,
+            )
         )  # fmt: skip
+    stream.state = int(state)
+    edges.stats.detour_seed = int(detour_seed) if len(radii) else None
     edges.stats.blocked_ends = status == PK.BLOCKED
     edges.stats.final_free = bool(free)
     edges.stats.final_not_free = known if len(known) else None
@@ -454,10 +463,10 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     # one after the other (rrt_connect_compiled)
     for side_by_side in (True, False):
         PK.plan_in(
-            q, q[None, :], q - 1, q + 1, np.zeros(SEARCH_SLOTS, np.int64), 0.0, 0.05, 1.0,
-            inputs, next_epoch((SEARCH_SLOTS + 4) << 40), 16,
-            scratch[0].shape[0] - SEARCH_SLOTS, 1.0, 0.5, 40, side_by_side, 0, 0.0, 1, 0.5, 1,
-            0.0, False, 0.01, 0.05, 32, False, np.zeros(1), 0,
+            q, q[None, :], q - 1, q + 1, np.uint64(0), SEARCH_SLOTS, 0.0, 0.05, 1.0, inputs,
+            next_epoch((SEARCH_SLOTS + 4) << 40), 16, scratch[0].shape[0] - SEARCH_SLOTS, 1.0,
+            0.5, 40, side_by_side, 0.0, 1, 0.5, 1, 0.0, False, 0.01, 0.05, 32, False,
+            np.zeros(1),
         )  # fmt: skip
     PK.shortcut_in(np.array([q, q + 0.01]), 0, 0.0, 0.05, inputs, next_epoch(1 << 20), 1, 1, 0.0)
     _WARM[0] = not searches_only
