@@ -520,6 +520,7 @@ def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
             out = PK.rrt_connect_many(
                 START, GOAL[None], arm.lower, arm.upper, seeds, 1e18, 0.2, 0.5, model,
                 scratch, epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish, final,
+                -1,
             )  # fmt: skip
             paths, lengths, statuses, _, found, shortened, _, sync, not_free = out
             w = PK._best(statuses, found, 2)

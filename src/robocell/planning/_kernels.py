@@ -365,22 +365,24 @@ def rrt_connect(
 @njit(cache=True, parallel=True, nogil=True)
 def rrt_connect_many(
     start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs, cap,
-    first_slot, box_lo, box_hi, p_box, whole_for, finish, final,
+    first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`rrt_connect` once per seed of ``seeds``, side by side on the kernel's threads
     (search i on scratch slot ``first_slot + i``, from stamp ``epochs[i]``): each stops once
     another has found a path with less work. A search that finds a path shortcuts it at once
     on its own thread (``finish``: see :func:`_search_one`), before it knows whether it won;
     then (``final``) the threads check the winner's path together, as the final check would.
-    Returns :func:`_search_outputs`. Launching them here cost 10–20 µs instead of the
-    150–200 µs of a Python thread's handoff (measured)."""
+    With ``ends_epoch`` ≥ 0 the first search checks the start and the goals first (status
+    BLOCKED if one is not FREE: see :func:`_search_one`). Returns :func:`_search_outputs`.
+    Launching them here cost 10–20 µs instead of the 150–200 µs of a Python thread's handoff
+    (measured)."""
     out = _search_outputs(seeds.shape[0], cap, start.shape[0])
     for i in prange(seeds.shape[0]):
         # prange's index is unsigned: _search_one would be compiled anew for it
         _search_one(
             np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step, model,
             scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final,
-            out,
+            ends_epoch, out,
         )  # fmt: skip
     return out
 
@@ -408,7 +410,7 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
 @njit(cache=True, nogil=True)
 def _search_one(
     i, start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs,
-    cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, out,
+    cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch, out,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Search i of :func:`rrt_connect_many` (seed ``seeds[i]``, scratch slot
     ``first_slot + i``, stamps from ``epochs[i]``), its results written into ``out``
@@ -423,10 +425,26 @@ def _search_one(
 
     ``final`` = (resolution, max_deviation, chunk, epoch, concurrent): with resolution > 0
     and a shortcut, the search then checks the winner's path with the others
-    (:func:`_final_share`)."""
+    (:func:`_final_share`).
+
+    ``ends_epoch`` ≥ 0: search 0 first classifies the start and the goals (:func:`SK.scan`,
+    stamps from ``ends_epoch``) while the others start searching; if one is not FREE, its
+    status is BLOCKED and the others stop at once (it sets its work found to −1: see
+    :func:`_beaten`). Before the threads were launched, on the calling thread alone, that
+    check took 16 µs of a plan (Panda table_pick after an ``ompl`` plan, median, session 39),
+    and every search waited for it."""
     paths, lengths, statuses, stats, found, shortened, shortcut_states, sync, _ = out
     n = seeds.shape[0]
     _atomic_add(sync, i, 1)
+    if (
+        i == 0
+        and ends_epoch >= 0
+        and not _ends_free(start, goals, model, scratch, first_slot, ends_epoch)
+    ):
+        statuses[0] = BLOCKED
+        found[0] = -1
+        _atomic_add(sync, n, 1)  # done
+        return
     path, status, st = rrt_connect(
         start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
         epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
@@ -453,6 +471,17 @@ def _search_one(
             out, n, resolution_f, max_deviation, chunk, epoch_f, concurrent,
             deadline, model, scratch, first_slot + i, i,
         )  # fmt: skip
+
+
+@njit(cache=True)
+def _ends_free(start, goals, model, scratch, slot, epoch):  # type: ignore[no-untyped-def]
+    """Whether the start and every goal (G, dof) are FREE, scanned on scratch slot ``slot``
+    (stamps from ``epoch``)."""
+    ends = np.empty((1 + goals.shape[0], start.shape[0]))
+    ends[0] = start
+    ends[1:] = goals
+    sc = SK.scanner(model, scratch, slot, ends.shape[0])
+    return SK.scan(ends, ends.shape[0], sc, epoch) == ends.shape[0]
 
 
 # the counters the searches' threads share (_search_outputs' sync array): per search j
@@ -591,7 +620,7 @@ def _final_share(
                     if not concurrent or now - t0 > NOT_STARTED_WAIT:
                         return
         _pause()
-    if statuses[w] != FOUND or not shortened[w]:
+    if statuses[w] != FOUND or not shortened[w] or statuses[0] == BLOCKED:
         return
     if prepared != w:
         both, order, later, keep = _prepared(out, n, w, resolution, max_deviation)
@@ -850,10 +879,12 @@ def plan_in(
     and the call needs no GIL.
 
     With ``check_ends``, the start and the goals are classified first, on the search's own
-    code (:func:`SK.scan`, stamps from ``epoch + (n + 1)·2**40``): if one is not FREE, the
-    call returns at once with status BLOCKED, and the caller checks them itself (coal settles
-    the unsure ones; the error names the colliding pair). Their checks in Python, before the
-    call, took 36–54 µs of a plan (two kernel calls; 4–6 µs now, session 30). Through the
+    code (:func:`SK.scan`, stamps from ``epoch + (n + 1)·2**40``), by the first search's
+    thread while the others start (:func:`_search_one`): if one is not FREE, the call returns
+    with status BLOCKED once the searches stopped, and the caller checks them itself (coal
+    settles the unsure ones; the error names the colliding pair). Their checks in Python,
+    before the call, took 36–54 µs of a plan (two kernel calls; 4–6 µs in this call, before
+    the threads were launched, session 30; 16 µs there on a plan's cold caches, session 39). Through the
     checker's batch classifier instead of ``scan`` (session 16), the first run's second
     process (planning.precompile) took 190 s instead of 144 to compile this kernel.
 
@@ -895,17 +926,7 @@ def plan_in(
     # loop of at most its thread count one; TBB's may run them one after the other): asked
     # here, as numba.get_num_threads took 25 µs in Python on a plan's cold caches (measured)
     concurrent = omp and _num_threads() >= n
-    if check_ends:
-        ends = np.empty((1 + goals.shape[0], dof))
-        ends[0] = start
-        ends[1:] = goals
-        sc = SK.scanner(model, scratch, first_slot, ends.shape[0])
-        if SK.scan(ends, ends.shape[0], sc, epoch + ((n + 1) << 40)) < ends.shape[0]:
-            nothing = np.zeros(0, np.int8)
-            return (
-                stream, mend_seed, np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0, False,
-                nothing, JUDGED_NOT, max_deviation,
-            )  # fmt: skip
+    ends_epoch = epoch + ((n + 1) << 40) if check_ends else np.int64(-1)
     box_lo = np.empty(dof)
     box_hi = np.empty(dof)
     for j in range(dof):
@@ -928,7 +949,7 @@ def plan_in(
     if side_by_side:
         out = rrt_connect_many(
             start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch,
-            epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final,
+            epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch,
         )  # fmt: skip
     else:
         # one after the other, the shortcut once the winner is known (a search that found a
@@ -941,9 +962,17 @@ def plan_in(
             _search_one(
                 np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step,
                 model, scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for,
-                finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent), out,
+                finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent), ends_epoch,
+                out,
             )  # fmt: skip
+            if out[2][0] == BLOCKED:
+                break
     paths, lengths, statuses, stats, found, shortened, shortcut_done, sync, not_free = out
+    if statuses[0] == BLOCKED:
+        return (
+            stream, mend_seed, np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0, False,
+            np.zeros(0, np.int8), JUDGED_NOT, max_deviation,
+        )  # fmt: skip
     best = _best(statuses, found, n)
     path = paths[best, : lengths[best]].copy()
     shortcut_states = shortcut_done[best]
