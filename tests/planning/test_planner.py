@@ -17,6 +17,7 @@ from robocell.planning import (
     PoseGoal,
     PositionGoal,
 )
+from robocell.planning.rrt import Edges, Seeds, rrt_connect_compiled
 from robocell.scene.moveit_yaml import load_request, load_scene
 from robocell.trajectory import BlendedPath
 from tests.conftest import mbm_dir
@@ -266,8 +267,19 @@ def test_the_search_checks_the_start_and_goal_and_the_planner_settles_them(walle
     arm = walled.robot.group("arm")
     inside = np.array([0, 0.6, 0.3, 0, 0, 0])
     assert walled.checker(arm).check(inside)[0]
-    with pytest.raises(PlanningError, match="joint goal is in collision: .*wall"):
-        Planner(walled).plan(MotionPlanRequest("arm", JointGoal(inside), start=START))
+    for threads in (True, False):  # the searches side by side, or one after the other
+        with pytest.raises(PlanningError, match="joint goal is in collision: .*wall"):
+            Planner(walled, PlannerConfig(threads=threads)).plan(
+                MotionPlanRequest("arm", JointGoal(inside), start=START)
+            )
+        # in the search's call, the first search's thread finds the goal not FREE and the
+        # call stops: nothing searched, the caller told
+        edges = Edges(walled.checker(arm), 0.07)
+        path = rrt_connect_compiled(
+            edges, START, inside[None], arm.lower, arm.upper, Seeds(0), 1e18, 0.7,
+            side_by_side=threads, check_ends=True,
+        )  # fmt: skip
+        assert path is None and edges.stats.blocked_ends and edges.stats.iterations == 0
     with pytest.raises(PlanningError, match="start state in collision: .*wall"):
         Planner(walled).plan(
             MotionPlanRequest("arm", JointGoal(GOAL), start=inside, planning_time=1e-12)
