@@ -102,6 +102,20 @@ def _pause(typingctx):  # type: ignore[no-untyped-def]
 
 
 @intrinsic
+def _nap(typingctx, us):  # type: ignore[no-untyped-def]
+    """The C library's usleep(us): the thread sleeps, its core goes idle, and the operating
+    system may run another thread there (bound by name, as :func:`_monotonic`)."""
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        i32 = ir.IntType(32)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i32, [i32]), "usleep")
+        builder.call(fn, [builder.trunc(args[0], i32)])
+        return context.get_dummy_value()
+
+    return types.none(us), codegen
+
+
+@intrinsic
 def _num_threads(typingctx):  # type: ignore[no-untyped-def]
     """numba.get_num_threads() in compiled code, from the threading layer's C function bound
     by name, as numba's parallel loops bind it (its own get_num_threads in compiled code goes
@@ -499,6 +513,15 @@ FINAL_STATES = 1 << 14
 # how long a search's thread waits for another search to start on a thread of its own (a
 # sleeping thread wakes in 0.2–0.4 ms here; OpenMP may give fewer threads than asked)
 NOT_STARTED_WAIT = 0.005
+# how long a thread waiting for another search's thread spins before it naps between looks
+# (NAP_US µs at a time): when another process keeps a core busy, the thread it waits for may
+# sit behind it, and a spinning thread keeps its own core from taking it; a napping one leaves
+# its core idle, and the operating system moves the waiting work there. Spinning throughout,
+# the Panda table sets' medians rose from 0.9–1.2 ms to 4.6–4.8 ms beside a busy loop
+# (session 39); most waits without one end within it (the loser of the race waited for the
+# winner's shortcut 34 µs, median; 106 µs at the 3rd quartile)
+SPIN_WAIT = 0.0002
+NAP_US = 20
 
 
 @njit(cache=True, inline="always")
@@ -592,6 +615,7 @@ def _final_share(
     # its own path, checked while it waits, until it loses
     ahead = statuses[me] == FOUND and shortened[me]
     t0 = _clock()
+    idle = -1.0  # when it started to wait with nothing to check
     while True:
         w = _decided(sync, statuses, found, n)
         if w >= 0:
@@ -619,7 +643,12 @@ def _final_share(
                     # thread of its own that has not started in NOT_STARTED_WAIT s has not)
                     if not concurrent or now - t0 > NOT_STARTED_WAIT:
                         return
-        _pause()
+        if idle < 0.0:
+            idle = now
+        if now - idle > SPIN_WAIT:
+            _nap(NAP_US)
+        else:
+            _pause()
     if statuses[w] != FOUND or not shortened[w] or statuses[0] == BLOCKED:
         return
     if prepared != w:
@@ -884,9 +913,10 @@ def plan_in(
     with status BLOCKED once the searches stopped, and the caller checks them itself (coal
     settles the unsure ones; the error names the colliding pair). Their checks in Python,
     before the call, took 36–54 µs of a plan (two kernel calls; 4–6 µs in this call, before
-    the threads were launched, session 30; 16 µs there on a plan's cold caches, session 39). Through the
-    checker's batch classifier instead of ``scan`` (session 16), the first run's second
-    process (planning.precompile) took 190 s instead of 144 to compile this kernel.
+    the threads were launched, session 30; 16 µs there on a plan's cold caches, session
+    39). Through the checker's batch classifier instead of ``scan`` (session 16), the first
+    run's second process (planning.precompile) took 190 s instead of 144 to compile this
+    kernel.
 
     With ``final_resolution`` > 0, side by side, the searches' threads then check the
     winner's shortcut path together as the final check classifies it first, in chunks of
