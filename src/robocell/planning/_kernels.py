@@ -10,6 +10,7 @@ Python search, which settles such states exactly, when the compiled one finds no
 from __future__ import annotations
 
 import math
+import os
 import platform
 import sys
 import time
@@ -104,12 +105,18 @@ def _pause(typingctx):  # type: ignore[no-untyped-def]
 @intrinsic
 def _nap(typingctx, us):  # type: ignore[no-untyped-def]
     """The C library's usleep(us): the thread sleeps, its core goes idle, and the operating
-    system may run another thread there (bound by name, as :func:`_monotonic`)."""
+    system may run another thread there (bound by name, as :func:`_monotonic`; POSIX only,
+    elsewhere the spin-wait hint of :func:`_pause`)."""
 
     def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
-        i32 = ir.IntType(32)
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i32, [i32]), "usleep")
-        builder.call(fn, [builder.trunc(args[0], i32)])
+        if _POSIX:
+            i32 = ir.IntType(32)
+            fnty = ir.FunctionType(i32, [i32])
+            fn = cgutils.get_or_insert_function(builder.module, fnty, "usleep")
+            builder.call(fn, [builder.trunc(args[0], i32)])
+        elif _X86:
+            fnty = ir.FunctionType(ir.VoidType(), [])
+            builder.call(cgutils.get_or_insert_function(builder.module, fnty, _PAUSE), [])
         return context.get_dummy_value()
 
     return types.none(us), codegen
@@ -132,6 +139,7 @@ def _num_threads(typingctx):  # type: ignore[no-untyped-def]
 
 
 _X86 = platform.machine().lower() in ("x86_64", "amd64", "i686", "x86")
+_POSIX = os.name == "posix"  # the C library has usleep (_nap)
 _PAUSE = "llvm.x86.sse2.pause"  # LLVM's intrinsic (numba's JIT takes no inline assembly)
 
 
