@@ -94,12 +94,17 @@ def _pause(typingctx):  # type: ignore[no-untyped-def]
     a counter another thread will change."""
 
     def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
-        if _X86:
-            fnty = ir.FunctionType(ir.VoidType(), [])
-            builder.call(cgutils.get_or_insert_function(builder.module, fnty, _PAUSE), [])
+        _emit_pause(builder)
         return context.get_dummy_value()
 
     return types.none(), codegen
+
+
+def _emit_pause(builder):  # type: ignore[no-untyped-def]
+    """x86's ``pause`` at the builder's position (nothing elsewhere)."""
+    if _X86:
+        fnty = ir.FunctionType(ir.VoidType(), [])
+        builder.call(cgutils.get_or_insert_function(builder.module, fnty, _PAUSE), [])
 
 
 @intrinsic
@@ -114,9 +119,8 @@ def _nap(typingctx, us):  # type: ignore[no-untyped-def]
             fnty = ir.FunctionType(i32, [i32])
             fn = cgutils.get_or_insert_function(builder.module, fnty, "usleep")
             builder.call(fn, [builder.trunc(args[0], i32)])
-        elif _X86:
-            fnty = ir.FunctionType(ir.VoidType(), [])
-            builder.call(cgutils.get_or_insert_function(builder.module, fnty, _PAUSE), [])
+        else:
+            _emit_pause(builder)
         return context.get_dummy_value()
 
     return types.none(us), codegen
@@ -465,7 +469,7 @@ def _search_one(
     ):
         statuses[0] = BLOCKED
         found[0] = -1
-        _atomic_add(sync, n, 1)  # done
+        _atomic_add(sync, n + i, 1)  # done
         return
     path, status, st = rrt_connect(
         start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
@@ -1464,6 +1468,20 @@ def repair_in(
     return True, new, -1, used, checked
 
 
+@njit(cache=True, inline="always")
+def _read_marks(runs, marks, i, hit):  # type: ignore[no-untyped-def]
+    """The marks of the states in the runs [s0, s1) of ``runs``, read in order from
+    ``marks[i]`` on: ``hit[s]`` set where a state is a HIT. Returns the next mark's index, or
+    −1 at an UNSURE state (:func:`_judged` then leaves the path to the planner)."""
+    for r in range(runs.shape[0]):
+        for s in range(runs[r, 0], runs[r, 1]):
+            if marks[i] == SK.UNSURE:
+                return -1
+            hit[s] = marks[i] == SK.HIT
+            i += 1
+    return i
+
+
 # what _judged settled in the searches' kernel call (plan_in): nothing (the planner's final
 # check proper decides), the path as it is, the path mended by detours, or the path mended
 # with its corners left to the planner's check (a state of their arcs UNSURE)
@@ -1494,24 +1512,18 @@ def _judged(
     A = arcs.shape[0]
     if marks.shape[0] != _run_states(off) + A + _run_states(on):
         return JUDGED_NOT, path, max_deviation
+    # the marks: the segments' states off the corners' stretches, the arcs', then those on
     hit = np.zeros(states.shape[0], np.bool_)
+    i = _read_marks(off, marks, 0, hit)
+    if i < 0:
+        return JUDGED_NOT, path, max_deviation
     arc_hit = False
-    i = 0
-    for part in range(3):
-        runs = off if part == 0 else on
-        if part == 1:  # the arcs, between the two
-            for _ in range(A):
-                if marks[i] == SK.UNSURE:
-                    return JUDGED_NOT, path, max_deviation
-                arc_hit = arc_hit or marks[i] == SK.HIT
-                i += 1
-            continue
-        for r in range(runs.shape[0]):
-            for s in range(runs[r, 0], runs[r, 1]):
-                if marks[i] == SK.UNSURE:
-                    return JUDGED_NOT, path, max_deviation
-                hit[s] = marks[i] == SK.HIT
-                i += 1
+    for a in range(i, i + A):
+        if marks[a] == SK.UNSURE:
+            return JUDGED_NOT, path, max_deviation
+        arc_hit = arc_hit or marks[a] == SK.HIT
+    if _read_marks(on, marks, i + A, hit) < 0:
+        return JUDGED_NOT, path, max_deviation
     rows = segment_hits(segment, hit)
     if rows.shape[0] == 0:
         # the segments are free whole: the corners stay sharp where an arc collides

@@ -25,6 +25,8 @@ from robocell.planning import _kernels as PK
 from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 
 _MASK64 = (1 << 64) - 1
+# SplitMix64's constants, the compiled draws' (PK._next_seed), as Python ints
+_GOLDEN, _MIX1, _MIX2 = int(PK._GOLDEN), int(PK._MIX1), int(PK._MIX2)
 
 
 class Seeds:
@@ -45,10 +47,10 @@ class Seeds:
 
     def next(self) -> int:
         """The next seed, in [0, 2**31)."""
-        self.state = (self.state + 0x9E3779B97F4A7C15) & _MASK64
+        self.state = (self.state + _GOLDEN) & _MASK64
         z = self.state
-        z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & _MASK64
-        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & _MASK64
+        z = ((z ^ (z >> 30)) * _MIX1) & _MASK64
+        z = ((z ^ (z >> 27)) * _MIX2) & _MASK64
         return (z ^ (z >> 31)) >> 33
 
     def generator(self) -> np.random.Generator:
