@@ -14,7 +14,8 @@ _os.environ.setdefault("MUJOCO_GL", "egl")
 # Read when OpenMP starts, so unless the user chose.
 _os.environ.setdefault("GOMP_SPINCOUNT", "10000")
 
-
+# robocell's own locators of numba's cache, installed on import: before any kernel is compiled
+import robocell._numba_cache  # noqa: F401
 from robocell.errors import (
     ExecutionError,
     GeometryError,

@@ -23,6 +23,17 @@ def test_the_second_process_compiles_into_the_cache_the_first_loads_from(walled)
     assert "planning kernels compiled" in done.stdout
 
 
+def test_an_index_of_other_sources_is_not_cached(walled, monkeypatch):
+    """An index left by other kernel sources (an older install) does not count: numba would
+    compile its kernels again, so the second process is worth starting."""
+    from robocell import _numba_cache
+
+    warm_up(walled.checker("arm"))
+    assert precompile.kernels_cached()
+    monkeypatch.setattr(_numba_cache, "sources_digest", lambda: b"other sources")
+    assert not precompile.kernels_cached()
+
+
 def test_start_and_wait(monkeypatch):
     """Without the kernels cached, start() runs the second process once; wait() joins it."""
     monkeypatch.setattr(precompile, "kernels_cached", lambda: False)

@@ -26,22 +26,33 @@ _JOB: list[subprocess.Popen[bytes]] = []
 
 
 def kernels_cached() -> bool:
-    """Whether the planning kernels are in numba's cache already (then nothing is started)."""
+    """Whether the planning kernels are in numba's cache already, for these sources (then
+    nothing is started): numba's index file of plan_in, the largest of them, beside the source
+    or under NUMBA_CACHE_DIR, stamped with the digest of robocell's kernel sources
+    (:mod:`robocell._numba_cache`). An index left by other sources (an older install) is
+    not: its kernels compile again."""
+    import pickle
     from pathlib import Path
 
     from numba.core import config
 
+    from robocell import _numba_cache
     from robocell.planning import _kernels as PK
 
     cache_dir = str(getattr(config, "CACHE_DIR", "") or "")  # NUMBA_CACHE_DIR
-
     source = Path(PK.__file__)
-    # numba's index file of plan_in, the largest of them (module.function-line.py311.nbi),
-    # beside the source or under NUMBA_CACHE_DIR
-    name = f"{source.stem}.plan_in-*.nbi"
-    if cache_dir:
-        return any(Path(cache_dir).rglob(name))
-    return any((source.parent / "__pycache__").glob(name))
+    name = f"{source.stem}.plan_in-*.nbi"  # module.function-line.py311.nbi
+    found = Path(cache_dir).rglob(name) if cache_dir else (source.parent / "__pycache__").glob(name)
+    for index in found:
+        try:
+            with open(index, "rb") as f:
+                pickle.load(f)  # numba's version
+                stamp, _ = pickle.loads(f.read())
+        except Exception:  # unreadable: as if absent
+            continue
+        if stamp == _numba_cache.sources_digest():
+            return True
+    return False
 
 
 def start() -> bool:
