@@ -82,7 +82,7 @@ class _UserWide(_WholeSources, caching.UserWideCacheLocator):  # the user's cach
 def install() -> None:
     """Put robocell's locators first (before any kernel of the package is decorated: numba
     picks a kernel's locator then). Idempotent."""
-    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # _CacheImpl in older numba
+    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # type: ignore[attr-defined]
     classes = impl._locator_classes
     if _InTree not in classes:
         classes[:0] = [_UserProvided, _InTree, _UserWide]
