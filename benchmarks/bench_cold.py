@@ -17,6 +17,12 @@ Reading them takes longer than it saves: the table says where the cold plan's mi
 not what to do before a plan (prefetching the model's arrays of up to 64 kB, 512 kB or 2 MB
 at the search's start, with LLVM's prefetch, made cold plans 2–10 % slower, session 30).
 Medians over the problems and rounds, in one process.
+
+These conditions are colder than a plan that follows an ``ompl`` plan, as `robocell bench
+planning` makes them: after 10 ms of a Python loop or asleep, the kernel's second thread is
+asleep (a parallel call of nothing took 149 µs after the loop, 11 µs after an ``ompl`` plan),
+and after an ``ompl`` plan reading the world grid or the tables back saved 0–14 µs, not
+~100 (session 41; see PLANNING.md).
 """
 
 from __future__ import annotations
