@@ -23,7 +23,8 @@ table); the self pairs few. Proving a state costs about 230 multiply-adds and fi
 lookups, against 0.6–1.3 µs for a check: the Panda's final check on the table sets would take
 about a third less (50–60 µs of a 0.6 ms table_pick plan). Tighter margins (a body's spheres a
 level below its bounding sphere) and proofs from the checked state on either side would prove
-more.
+more. Built in the kernel (branch ``s41-prove``), it proved 41 % but made the final check
+slower: its margins cost about 0.25 µs a checked state (PLANNING.md, session 41).
 """
 
 from __future__ import annotations
