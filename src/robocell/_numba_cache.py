@@ -79,11 +79,16 @@ class _UserWide(_WholeSources, caching.UserWideCacheLocator):  # the user's cach
     pass
 
 
+def locator_classes() -> list[Any]:
+    """numba's list of cache locators, tried in order (``_CacheImpl``'s in older numba)."""
+    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # type: ignore[attr-defined]
+    return impl._locator_classes  # type: ignore[no-any-return]
+
+
 def install() -> None:
     """Put robocell's locators first (before any kernel of the package is decorated: numba
     picks a kernel's locator then). Idempotent."""
-    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # type: ignore[attr-defined]
-    classes = impl._locator_classes
+    classes = locator_classes()
     if _InTree not in classes:
         classes[:0] = [_UserProvided, _InTree, _UserWide]
 

@@ -26,11 +26,11 @@ def test_the_second_process_compiles_into_the_cache_the_first_loads_from(walled)
 def test_an_index_of_other_sources_is_not_cached(walled, monkeypatch):
     """An index left by other kernel sources (an older install) does not count: numba would
     compile its kernels again, so the second process is worth starting."""
-    from robocell import _numba_cache
+    from robocell.planning import _kernels as PK
 
     warm_up(walled.checker("arm"))
     assert precompile.kernels_cached()
-    monkeypatch.setattr(_numba_cache, "sources_digest", lambda: b"other sources")
+    monkeypatch.setattr(PK.plan_in._cache._cache_file, "_source_stamp", b"other sources")
     assert not precompile.kernels_cached()
 
 

@@ -27,32 +27,16 @@ _JOB: list[subprocess.Popen[bytes]] = []
 
 def kernels_cached() -> bool:
     """Whether the planning kernels are in numba's cache already, for these sources (then
-    nothing is started): numba's index file of plan_in, the largest of them, beside the source
-    or under NUMBA_CACHE_DIR, stamped with the digest of robocell's kernel sources
-    (:mod:`robocell._numba_cache`). An index left by other sources (an older install) is
-    not: its kernels compile again."""
-    import pickle
-    from pathlib import Path
-
-    from numba.core import config
-
-    from robocell import _numba_cache
+    nothing is started): plan_in's index, the largest of them, as numba itself reads it
+    (wherever its locator keeps it), fresh for its stamp, the digest of robocell's kernel
+    sources (:mod:`robocell._numba_cache`). An index left by other sources (an older install)
+    is not: its kernels compile again."""
     from robocell.planning import _kernels as PK
 
-    cache_dir = str(getattr(config, "CACHE_DIR", "") or "")  # NUMBA_CACHE_DIR
-    source = Path(PK.__file__)
-    name = f"{source.stem}.plan_in-*.nbi"  # module.function-line.py311.nbi
-    found = Path(cache_dir).rglob(name) if cache_dir else (source.parent / "__pycache__").glob(name)
-    for index in found:
-        try:
-            with open(index, "rb") as f:
-                pickle.load(f)  # numba's version
-                stamp, _ = pickle.loads(f.read())
-        except Exception:  # unreadable: as if absent
-            continue
-        if stamp == _numba_cache.sources_digest():
-            return True
-    return False
+    try:
+        return bool(PK.plan_in._cache._cache_file._load_index())  # type: ignore[attr-defined]
+    except Exception:  # unreadable: as if absent
+        return False
 
 
 def start() -> bool:
