@@ -287,12 +287,14 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
     took the least work wins, whatever the scheduling: the same path as the better of the two
     seeds run on their own, every time."""
     from robocell.planning import _kernels as PK
+    from robocell.scene import _kernels as SK
     from robocell.scene.checker import SEARCH_SLOTS, next_epoch
 
     arm = walled.robot.group("arm")
     checker = walled.checker(arm)
     warm_up(checker)
     model, scratch = checker.kernel_inputs()
+    scanners = SK.scanners_in(checker.compiled_inputs)
     slot = scratch[0].shape[0] - SEARCH_SLOTS
     winners = set()
     for seed in range(6):
@@ -303,8 +305,8 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
             found = np.full(1, np.iinfo(np.int64).max, np.int64)
             path, status, stats = PK.rrt_connect(
                 START, GOAL[None], arm.lower, arm.upper, int(s), 1e18, 0.05, 0.5, model,
-                scratch, next_epoch(1 << 40), 1 << 14, slot, found, 0, arm.lower, arm.upper,
-                0.0, 40,
+                scratch, scanners, next_epoch(1 << 40), 1 << 14, slot, found, 0, arm.lower,
+                arm.upper, 0.0, 40,
             )  # fmt: skip
             assert status == PK.FOUND and found[0] == stats[4]
             alone.append((int(stats[4]), path))
@@ -505,6 +507,7 @@ def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
         checker = scene.checker(arm)
         warm_up(checker)
         model, scratch = checker.kernel_inputs()
+        scanners = SK.scanners_in(checker.compiled_inputs)
         slot = scratch[0].shape[0] - SEARCH_SLOTS
         # which thread ends first is up to the scheduler: plans until the winner's path was
         # checked ahead in a few (9, 16 and 11 of 800 plans in three runs here, alone and
@@ -519,8 +522,8 @@ def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
             final = (0.01, 0.05, 8, epoch + (4 << 40), True)
             out = PK.rrt_connect_many(
                 START, GOAL[None], arm.lower, arm.upper, seeds, 1e18, 0.2, 0.5, model,
-                scratch, epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish, final,
-                -1,
+                scratch, scanners, epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish,
+                final, -1,
             )  # fmt: skip
             paths, lengths, statuses, _, found, shortened, _, sync, not_free = out
             w = PK._best(statuses, found, 2)

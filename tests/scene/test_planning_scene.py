@@ -269,7 +269,8 @@ def test_an_edge_scan_counts_the_free_states_before_the_first_that_is_not(irb120
     """scan (a search's edge check: the model and the slot's work arrays as one Scanner,
     read without reference counting) returns how many leading states are FREE, as the
     classifier says, for edges longer than its buffer (chunks of 8) and its first ``n`` states
-    alone; the scratch slot's stamps carry over from call to call without mixing states."""
+    alone; the scratch slot's stamps carry over from call to call without mixing states. The
+    scanners a checker keeps for its kernel calls scan the same."""
     from numba import njit
     from numba.typed import List
 
@@ -304,6 +305,18 @@ def test_an_edge_scan_counts_the_free_states_before_the_first_that_is_not(irb120
             expected.append(k)
     got = scan_each(List(batches), np.array(n), model, scratch, next_epoch(100 * len(n)))
     assert got.tolist() == expected
+    # the checker's own scanners (one per scratch slot, kept for its kernel calls) stop where
+    # a new one does, in every slot, and again on a later call
+    kept = K.scanners_in(checker.compiled_inputs)
+    assert len(kept) == scratch[0].shape[0]
+    for _ in range(2):
+        for slot in range(len(kept)):
+            epoch = next_epoch(100 * len(n))
+            got = [
+                K.scan(b, m, kept[slot], epoch + 100 * i)
+                for i, (b, m) in enumerate(zip(batches, n, strict=True))
+            ]
+            assert got == expected
 
 
 def test_the_scanners_meminfo_layout_is_numbas():

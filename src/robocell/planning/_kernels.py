@@ -275,8 +275,8 @@ def _extend(Q, P, n, i, q_to, step, resolution, sc, epoch, buf, stats, whole):  
 
 @njit(cache=True, nogil=True)
 def rrt_connect(
-    start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, epoch, cap,
-    slot, found, me, box_lo, box_hi, p_box, whole_for,
+    start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, scanners,
+    epoch, cap, slot, found, me, box_lo, box_hi, p_box, whole_for,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A collision-free path (K, dof) from ``start`` to one of ``goals`` (G, dof) and a status
     (FOUND, NOT_FOUND when ``deadline`` (time.perf_counter) passed, FULL when a tree reached
@@ -291,8 +291,8 @@ def rrt_connect(
     dof = start.shape[0]
     stats = np.zeros(5, np.int64)  # iterations, nodes, epochs used, states checked, work
     placed = _placed(scratch, slot)
-    buf = np.empty((4096, dof))
-    sc = SK.scanner(model, scratch, slot, buf.shape[0])
+    buf = np.empty((SK.SCAN_STATES, dof))
+    sc = scanners[slot]
     empty = np.empty((0, dof))
     # straight to the nearest goals first: many requests need nothing more (the first search
     # tries it; the others would repeat it)
@@ -390,8 +390,8 @@ def rrt_connect(
 
 @njit(cache=True, parallel=True, nogil=True)
 def rrt_connect_many(
-    start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs, cap,
-    first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch,
+    start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, scanners,
+    epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`rrt_connect` once per seed of ``seeds``, side by side on the kernel's threads
     (search i on scratch slot ``first_slot + i``, from stamp ``epochs[i]``): each stops once
@@ -407,8 +407,8 @@ def rrt_connect_many(
         # prange's index is unsigned: _search_one would be compiled anew for it
         _search_one(
             np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step, model,
-            scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final,
-            ends_epoch, out,
+            scratch, scanners, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish,
+            final, ends_epoch, out,
         )  # fmt: skip
     return out
 
@@ -435,8 +435,8 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, nogil=True)
 def _search_one(
-    i, start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, epochs,
-    cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch, out,
+    i, start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, scanners,
+    epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch, out,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Search i of :func:`rrt_connect_many` (seed ``seeds[i]``, scratch slot
     ``first_slot + i``, stamps from ``epochs[i]``), its results written into ``out``
@@ -465,7 +465,7 @@ def _search_one(
     if (
         i == 0
         and ends_epoch >= 0
-        and not _ends_free(start, goals, model, scratch, first_slot, ends_epoch)
+        and not _ends_free(start, goals, scanners, first_slot, ends_epoch)
     ):
         statuses[0] = BLOCKED
         found[0] = -1
@@ -473,13 +473,13 @@ def _search_one(
         return
     path, status, st = rrt_connect(
         start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
-        epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
+        scanners, epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
     )  # fmt: skip
     seed, sc_deadline, tries, share, min_states, sc_epoch, min_gain = finish
     if status == FOUND and tries > 0:
         budget = max(min_states, int(share * st[3]))
         short, sc = shortcut(
-            path, seed, sc_deadline, resolution, model, scratch, _stamps(sc_epoch, n, i), tries,
+            path, seed, sc_deadline, resolution, scanners, _stamps(sc_epoch, n, i), tries,
             budget, first_slot + i, min_gain, found, i,
         )  # fmt: skip
         if short.shape[0] <= paths.shape[1]:
@@ -494,20 +494,19 @@ def _search_one(
     resolution_f, max_deviation, chunk, epoch_f, concurrent = final
     if resolution_f > 0 and tries > 0:
         _final_share(
-            out, n, resolution_f, max_deviation, chunk, epoch_f, concurrent,
-            deadline, model, scratch, first_slot + i, i,
+            out, n, resolution_f, max_deviation, chunk, epoch_f, concurrent, deadline, scanners,
+            first_slot + i, i,
         )  # fmt: skip
 
 
 @njit(cache=True)
-def _ends_free(start, goals, model, scratch, slot, epoch):  # type: ignore[no-untyped-def]
+def _ends_free(start, goals, scanners, slot, epoch):  # type: ignore[no-untyped-def]
     """Whether the start and every goal (G, dof) are FREE, scanned on scratch slot ``slot``
-    (stamps from ``epoch``)."""
+    (its scanner of ``scanners``, stamps from ``epoch``)."""
     ends = np.empty((1 + goals.shape[0], start.shape[0]))
     ends[0] = start
     ends[1:] = goals
-    sc = SK.scanner(model, scratch, slot, ends.shape[0])
-    return SK.scan(ends, ends.shape[0], sc, epoch) == ends.shape[0]
+    return SK.scan(ends, ends.shape[0], scanners[slot], epoch) == ends.shape[0]
 
 
 # the counters the searches' threads share (_search_outputs' sync array): per search j
@@ -572,8 +571,7 @@ def _decided(sync, statuses, found, n):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def _final_share(
-    out, n, resolution, max_deviation, chunk, epoch, concurrent, deadline, model,
-    scratch, slot, me,
+    out, n, resolution, max_deviation, chunk, epoch, concurrent, deadline, scanners, slot, me,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Search ``me``'s thread, once its search is done, checks the winner's shortcut path with
     the others, as :func:`_final_check` would classify it first (:func:`_final_batch`):
@@ -607,7 +605,7 @@ def _final_share(
     ``ompl`` plan: in 70 of 150 plans the winner's thread waited 120 µs for the other search,
     while its path's check took 180 µs on two threads after it). Each search's path has
     counters, marks and stamps of its own, so a check of a path that lost is left as it is.
-    The thread's scanner is made before it waits, not after.
+    The thread's scanner is its slot's, kept by the checker (:func:`SK.kernel_inputs`).
 
     A thread with nothing to check while it waits could scan chunks of the edges the other
     search's shortcut checks (the edge's states posted on a board, chunks of 4 taken by
@@ -617,7 +615,7 @@ def _final_share(
     721 → 774 hot; the board alone, with no thread to help, 511 → 602): not kept."""
     paths, _, statuses, _, found, shortened, _, sync, not_free = out
     dof = paths.shape[2]
-    sc = SK.scanner(model, scratch, slot, chunk)
+    sc = scanners[slot]
     # the path this thread checks (-1: none yet): its first batch, their rows in the final
     # check's order, the states of the corners' stretches, whether their marks fit (_prepared)
     prepared = -1
@@ -740,7 +738,7 @@ def _edge_free(a, b, resolution, sc, epoch, buf, stats):  # type: ignore[no-unty
     """Whether the segment a → b (b included, a assumed free) is free, its states at most
     ``resolution`` apart per joint checked coarse to fine (:func:`_edge_states`), stopping
     at the first that is not FREE. Counts epochs and states in ``stats`` (2: epochs used,
-    3: states checked). ``sc``: SK.scanner."""
+    3: states checked). ``sc``: a :class:`SK.Scanner`."""
     qs, n = _edge_states(a, b, resolution, buf, True)
     k = SK.scan(qs, n, sc, epoch + stats[2])
     stats[2] += n
@@ -778,8 +776,7 @@ def shortcut(
     seed,
     deadline,
     resolution,
-    model,
-    scratch,
+    scanners,
     epoch,
     max_tries,
     budget,
@@ -792,7 +789,8 @@ def shortcut(
     shortcuts between points on the path (at most ``max_tries``, until 12 fail in a row or
     ``budget`` states are checked; one that would shorten the stretch it replaces by less than
     the share ``min_gain`` is not checked, and fails), greedy again if they changed the path;
-    repeated waypoints dropped. Checks on scratch slot ``slot``. Returns the path and stats
+    repeated waypoints dropped. Checks on scratch slot ``slot`` (its scanner of ``scanners``).
+    Returns the path and stats
     (2: epochs used, 3: states checked).
 
     It stops early, its path left as far as it got, once search ``me`` of a race lost
@@ -802,8 +800,8 @@ def shortcut(
     np.random.seed(seed)  # noqa: NPY002 (numba's generator)
     dof = path.shape[1]
     stats = np.zeros(4, np.int64)
-    buf = np.empty((4096, dof))
-    sc = SK.scanner(model, scratch, slot, buf.shape[0])
+    buf = np.empty((SK.SCAN_STATES, dof))
+    sc = scanners[slot]
     path = _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline, found, me)
     stop_at = stats[3] + budget
     fails = 0
@@ -862,16 +860,16 @@ def shortcut(
 
 
 @njit(cache=True)
-def detour(a, b, near, lower, upper, radii, seed, resolution, model, scratch, epoch):  # type: ignore[no-untyped-def]
+def detour(a, b, near, lower, upper, radii, seed, resolution, scanners, epoch):  # type: ignore[no-untyped-def]
     """A waypoint w near ``near``, one per radius of ``radii`` tried (uniform in the box of that
     half-width, within the limits), such that a → w → b is free at ``resolution`` (w checked
-    alone first: most tries fail there). Returns (found, w, stats (2: epochs used, 3: states
-    checked))."""
+    alone first: most tries fail there; on scratch slot 0's scanner of ``scanners``). Returns
+    (found, w, stats (2: epochs used, 3: states checked))."""
     np.random.seed(seed)  # noqa: NPY002 (numba's generator)
     dof = a.shape[0]
     stats = np.zeros(4, np.int64)
-    buf = np.empty((4096, dof))
-    sc = SK.scanner(model, scratch, 0, buf.shape[0])
+    buf = np.empty((SK.SCAN_STATES, dof))
+    sc = scanners[0]
     w = np.empty(dof)
     for radius in radii:
         for j in range(dof):
@@ -952,7 +950,7 @@ def plan_in(
     in a second process (planning.precompile), 250 s instead of 135 (measured); ``SK.scan``
     is the searches' own code. In session 30 the same scan after the race, in the calling thread
     alone, made plans slower: on two threads the final check took less."""
-    model, scratch = inputs.model, inputs.scratch
+    model, scratch, scanners = inputs.model, inputs.scratch, inputs.scanners
     dof = start.shape[0]
     n = searches
     seeds = np.empty(n, np.int64)
@@ -991,7 +989,8 @@ def plan_in(
     if side_by_side:
         out = rrt_connect_many(
             start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch,
-            epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch,
+            scanners, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final,
+            ends_epoch,
         )  # fmt: skip
     else:
         # one after the other, the shortcut once the winner is known (a search that found a
@@ -1003,9 +1002,9 @@ def plan_in(
         for i in range(n):
             _search_one(
                 np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step,
-                model, scratch, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for,
-                finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent), ends_epoch,
-                out,
+                model, scratch, scanners, epochs, cap, first_slot, box_lo, box_hi, p_box,
+                whole_for, finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent),
+                ends_epoch, out,
             )  # fmt: skip
             if out[2][0] == BLOCKED:
                 break
@@ -1021,7 +1020,7 @@ def plan_in(
     if statuses[best] == FOUND and shortcut_tries > 0 and not shortened[best]:
         budget = max(shortcut_min, int(shortcut_share * stats[best, 3]))
         path, st = shortcut(
-            path, shortcut_seed, shortcut_deadline, resolution, model, scratch, epoch + (n << 40),
+            path, shortcut_seed, shortcut_deadline, resolution, scanners, epoch + (n << 40),
             shortcut_tries, budget, first_slot, shortcut_min_gain, np.zeros(1, np.int64),
             np.int64(0),
         )  # fmt: skip
@@ -1041,7 +1040,7 @@ def plan_in(
     if kept and whole_later and mend_radii.shape[0] > 0:
         judged, path, dev = _judged(
             path, known, final_resolution, max_deviation, lower, upper, mend_radii, mend_seed,
-            model, scratch, epoch + ((n + 3) << 40),
+            scanners, epoch + ((n + 3) << 40),
         )  # fmt: skip
         if judged != JUDGED_NOT:
             known = known[:0]
@@ -1055,17 +1054,15 @@ def plan_in(
 def shortcut_in(path, seed, deadline, resolution, inputs, epoch, max_tries, budget, min_gain):  # type: ignore[no-untyped-def]
     """:func:`shortcut` on a KernelInputs."""
     return shortcut(
-        path, seed, deadline, resolution, inputs.model, inputs.scratch, epoch, max_tries, budget,
-        np.int64(0), min_gain, np.zeros(1, np.int64), np.int64(0),
+        path, seed, deadline, resolution, inputs.scanners, epoch, max_tries, budget, np.int64(0),
+        min_gain, np.zeros(1, np.int64), np.int64(0),
     )  # fmt: skip
 
 
 @njit(cache=True)
 def detour_in(a, b, near, lower, upper, radii, seed, resolution, inputs, epoch):  # type: ignore[no-untyped-def]
     """:func:`detour` on a KernelInputs."""
-    return detour(
-        a, b, near, lower, upper, radii, seed, resolution, inputs.model, inputs.scratch, epoch
-    )
+    return detour(a, b, near, lower, upper, radii, seed, resolution, inputs.scanners, epoch)
 
 
 @njit(cache=True)
@@ -1392,7 +1389,7 @@ def segment_hits(segment, hit):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def _detoured(path, segments, near, lower, upper, radii, seed, resolution, model, scratch, epoch):  # type: ignore[no-untyped-def]
+def _detoured(path, segments, near, lower, upper, radii, seed, resolution, scanners, epoch):  # type: ignore[no-untyped-def]
     """The path with its colliding segments mended by detours: segment ``segments[h]``
     (increasing) collides first at ``near[h, 0]``, between the free states ``near[h, 1]`` and
     ``near[h, 2]``; the stretch between those is replaced by a detour (:func:`detour`, seed
@@ -1417,7 +1414,7 @@ def _detoured(path, segments, near, lower, upper, radii, seed, resolution, model
             p1 = near[h, 2] if attempt == 0 else b
             found, via, st = detour(
                 p0, p1, near[h, 0], lower, upper, radii, seed + 2 * h + attempt, resolution,
-                model, scratch, epoch + used,
+                scanners, epoch + used,
             )  # fmt: skip
             used += st[2]
             if found:
@@ -1454,7 +1451,7 @@ def repair_in(
     from the path checked before and the detours' by them)."""
     model, scratch = inputs.model, inputs.scratch
     ok, new, k, used = _detoured(
-        path, segments, near, lower, upper, radii, seed, resolution, model, scratch, epoch
+        path, segments, near, lower, upper, radii, seed, resolution, inputs.scanners, epoch
     )  # fmt: skip
     if not ok:
         checked = _final_check(
@@ -1489,9 +1486,7 @@ JUDGED_NOT, JUDGED, JUDGED_MENDED, MENDED_CORNERS_OPEN = 0, 1, 2, 3
 
 
 @njit(cache=True)
-def _judged(
-    path, marks, resolution, max_deviation, lower, upper, radii, seed, model, scratch, epoch
-):  # type: ignore[no-untyped-def]
+def _judged(path, marks, resolution, max_deviation, lower, upper, radii, seed, scanners, epoch):  # type: ignore[no-untyped-def]
     """The planner's judgement of a path the searches' threads checked whole and found not
     FREE throughout (``marks``: the class of each state the final check classifies, in its
     order: :func:`_final_share`), made in their kernel call when no state is UNSURE (coal
@@ -1533,8 +1528,7 @@ def _judged(
         for c in range(3):
             near[h, c] = states[rows[h, c + 1]]
     ok, new, _, used = _detoured(
-        path, rows[:, 0].copy(), near, lower, upper, radii, seed, resolution, model, scratch,
-        epoch,
+        path, rows[:, 0].copy(), near, lower, upper, radii, seed, resolution, scanners, epoch,
     )  # fmt: skip
     if not ok:
         return JUDGED_NOT, path, max_deviation
@@ -1543,7 +1537,7 @@ def _judged(
     A = arcs.shape[0]
     if A == 0:
         return JUDGED_MENDED, new, max_deviation
-    sc = SK.scanner(model, scratch, 0, A)
+    sc = scanners[0]
     k = SK.scan(arcs, A, sc, epoch + used)
     if k == A:
         return JUDGED_MENDED, new, max_deviation

@@ -25,6 +25,7 @@ from numba import njit, prange, types
 from numba.core import cgutils
 from numba.experimental import structref
 from numba.extending import intrinsic
+from numba.typed import List
 from numpy.typing import NDArray
 
 from robocell.kinematics._kernels import block_lanes, fk_block, fk_into
@@ -1759,8 +1760,8 @@ def _scanner_fields(typingctx, sc):  # type: ignore[no-untyped-def]
 def scanner(model, scratch, slot, n):  # type: ignore[no-untyped-def]
     """What :func:`scan` works with on scratch slot ``slot``, up to ``n`` states at a time
     (a :class:`Scanner`): the model, and the slot's arrays, empty flags, and the results' and
-    :func:`_range_buffers`' arrays. Built once per search: allocating them for each edge cost
-    1.5–2 µs of the 3 µs an edge of one state took (measured)."""
+    :func:`_range_buffers`' arrays. Allocating them for each edge cost 1.5–2 µs of the 3 µs an
+    edge of one state took (measured); a checker keeps one per slot (:func:`kernel_inputs`)."""
     P = model[25].shape[0] + model[26].shape[0]
     work = (np.zeros((0, P), np.bool_), np.zeros(P, np.bool_), np.empty(n, np.int8))
     return Scanner(model, _slot(scratch, slot) + work + (_range_buffers(model),))
@@ -1883,17 +1884,36 @@ class KernelInputsType(_TuplesRef):  # type: ignore[misc]
 
 
 class KernelInputs(structref.StructRefProxy):  # type: ignore[misc]
-    """(model, scratch) of a checker, for compiled entry points (``*_in``)."""
+    """(model, scratch, scanners) of a checker, for compiled entry points (``*_in``):
+    ``scanners`` holds a :class:`Scanner` per scratch slot (:func:`kernel_inputs`)."""
 
 
-structref.define_proxy(KernelInputs, KernelInputsType, ["model", "scratch"])
+structref.define_proxy(KernelInputs, KernelInputsType, ["model", "scratch", "scanners"])
+
+
+# the states a kept scanner classifies at a time (its results' array; :func:`scan` takes
+# any number, in runs of this many): the searches' and shortcuts' longest edge
+SCAN_STATES = 4096
 
 
 @njit(cache=True)
 def kernel_inputs(model, scratch):  # type: ignore[no-untyped-def]
     """A :class:`KernelInputs` (built in cached compiled code: the proxy's own constructor
-    is compiled anew in each process, 1 s)."""
-    return KernelInputs(model, scratch)
+    is compiled anew in each process, 1 s), with a scanner for each scratch slot, made once
+    per model rather than by each search, shortcut and check of a plan: a scanner took 11–15
+    µs to make in a plan that follows an ``ompl`` plan (4–5 µs hot), and a plan made seven
+    (Panda table_pick, session 42, measured)."""
+    scanners = List()
+    for slot in range(scratch[0].shape[0]):
+        scanners.append(scanner(model, scratch, slot, SCAN_STATES))
+    return KernelInputs(model, scratch, scanners)
+
+
+@njit(cache=True)
+def scanners_in(inputs):  # type: ignore[no-untyped-def]
+    """A :class:`KernelInputs`' scanners, for Python (the proxy's own attribute is compiled
+    anew in each process)."""
+    return inputs.scanners
 
 
 @njit(cache=True)
