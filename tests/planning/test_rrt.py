@@ -293,7 +293,7 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
     arm = walled.robot.group("arm")
     checker = walled.checker(arm)
     warm_up(checker)
-    model, scratch = checker.kernel_inputs()
+    _, scratch = checker.kernel_inputs()
     scanners = SK.scanners_in(checker.compiled_inputs)
     slot = scratch[0].shape[0] - SEARCH_SLOTS
     winners = set()
@@ -304,9 +304,9 @@ def test_searches_side_by_side_return_the_least_work_one(walled):
         for s in seeds:  # each seed on its own: its path and its work
             found = np.full(1, np.iinfo(np.int64).max, np.int64)
             path, status, stats = PK.rrt_connect(
-                START, GOAL[None], arm.lower, arm.upper, int(s), 1e18, 0.05, 0.5, model,
-                scratch, scanners, next_epoch(1 << 40), 1 << 14, slot, found, 0, arm.lower,
-                arm.upper, 0.0, 40,
+                START, GOAL[None], arm.lower, arm.upper, int(s), 1e18, 0.05, 0.5, scratch,
+                scanners, next_epoch(1 << 40), 1 << 14, slot, found, 0, arm.lower, arm.upper,
+                0.0, 40,
             )  # fmt: skip
             assert status == PK.FOUND and found[0] == stats[4]
             alone.append((int(stats[4]), path))
@@ -506,7 +506,7 @@ def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
         arm = scene.robot.group("arm")
         checker = scene.checker(arm)
         warm_up(checker)
-        model, scratch = checker.kernel_inputs()
+        _, scratch = checker.kernel_inputs()
         scanners = SK.scanners_in(checker.compiled_inputs)
         slot = scratch[0].shape[0] - SEARCH_SLOTS
         # which thread ends first is up to the scheduler: plans until the winner's path was
@@ -521,9 +521,9 @@ def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
             finish = (seed, 1e18, 20, 0.5, 100, epoch + (2 << 40), 0.02)
             final = (0.01, 0.05, 8, epoch + (4 << 40), True)
             out = PK.rrt_connect_many(
-                START, GOAL[None], arm.lower, arm.upper, seeds, 1e18, 0.2, 0.5, model,
-                scratch, scanners, epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish,
-                final, -1,
+                START, GOAL[None], arm.lower, arm.upper, seeds, 1e18, 0.2, 0.5, scratch,
+                scanners, epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish, final,
+                -1,
             )  # fmt: skip
             paths, lengths, statuses, _, found, shortened, _, sync, not_free = out
             w = PK._best(statuses, found, 2)

@@ -275,8 +275,8 @@ def _extend(Q, P, n, i, q_to, step, resolution, sc, epoch, buf, stats, whole):  
 
 @njit(cache=True, nogil=True)
 def rrt_connect(
-    start, goals, lower, upper, seed, deadline, resolution, step, model, scratch, scanners,
-    epoch, cap, slot, found, me, box_lo, box_hi, p_box, whole_for,
+    start, goals, lower, upper, seed, deadline, resolution, step, scratch, scanners, epoch, cap,
+    slot, found, me, box_lo, box_hi, p_box, whole_for,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """A collision-free path (K, dof) from ``start`` to one of ``goals`` (G, dof) and a status
     (FOUND, NOT_FOUND when ``deadline`` (time.perf_counter) passed, FULL when a tree reached
@@ -390,8 +390,8 @@ def rrt_connect(
 
 @njit(cache=True, parallel=True, nogil=True)
 def rrt_connect_many(
-    start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, scanners,
-    epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch,
+    start, goals, lower, upper, seeds, deadline, resolution, step, scratch, scanners, epochs,
+    cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """:func:`rrt_connect` once per seed of ``seeds``, side by side on the kernel's threads
     (search i on scratch slot ``first_slot + i``, from stamp ``epochs[i]``): each stops once
@@ -406,9 +406,9 @@ def rrt_connect_many(
     for i in prange(seeds.shape[0]):
         # prange's index is unsigned: _search_one would be compiled anew for it
         _search_one(
-            np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step, model,
-            scratch, scanners, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish,
-            final, ends_epoch, out,
+            np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step, scratch,
+            scanners, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final,
+            ends_epoch, out,
         )  # fmt: skip
     return out
 
@@ -435,8 +435,8 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, nogil=True)
 def _search_one(
-    i, start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch, scanners,
-    epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch, out,
+    i, start, goals, lower, upper, seeds, deadline, resolution, step, scratch, scanners, epochs,
+    cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch, out,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Search i of :func:`rrt_connect_many` (seed ``seeds[i]``, scratch slot
     ``first_slot + i``, stamps from ``epochs[i]``), its results written into ``out``
@@ -472,8 +472,8 @@ def _search_one(
         _atomic_add(sync, n + i, 1)  # done
         return
     path, status, st = rrt_connect(
-        start, goals, lower, upper, seeds[i], deadline, resolution, step, model, scratch,
-        scanners, epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
+        start, goals, lower, upper, seeds[i], deadline, resolution, step, scratch, scanners,
+        epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
     )  # fmt: skip
     seed, sc_deadline, tries, share, min_states, sc_epoch, min_gain = finish
     if status == FOUND and tries > 0:
@@ -950,7 +950,7 @@ def plan_in(
     in a second process (planning.precompile), 250 s instead of 135 (measured); ``SK.scan``
     is the searches' own code. In session 30 the same scan after the race, in the calling thread
     alone, made plans slower: on two threads the final check took less."""
-    model, scratch, scanners = inputs.model, inputs.scratch, inputs.scanners
+    scratch, scanners = inputs.scratch, inputs.scanners
     dof = start.shape[0]
     n = searches
     seeds = np.empty(n, np.int64)
@@ -988,9 +988,8 @@ def plan_in(
     final = (final_resolution, max_deviation, final_chunk, final_epoch, concurrent)
     if side_by_side:
         out = rrt_connect_many(
-            start, goals, lower, upper, seeds, deadline, resolution, step, model, scratch,
-            scanners, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final,
-            ends_epoch,
+            start, goals, lower, upper, seeds, deadline, resolution, step, scratch, scanners,
+            epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for, finish, final, ends_epoch,
         )  # fmt: skip
     else:
         # one after the other, the shortcut once the winner is known (a search that found a
@@ -1002,8 +1001,8 @@ def plan_in(
         for i in range(n):
             _search_one(
                 np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step,
-                model, scratch, scanners, epochs, cap, first_slot, box_lo, box_hi, p_box,
-                whole_for, finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent),
+                scratch, scanners, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for,
+                finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent),
                 ends_epoch, out,
             )  # fmt: skip
             if out[2][0] == BLOCKED:
