@@ -380,6 +380,32 @@ def test_seeds_are_a_reproducible_stream_of_31_bit_seeds():
     assert Seeds(7).generator().random() != Seeds(8).generator().random()
 
 
+def test_the_searches_call_leaves_the_stream_as_its_draws_would(walled):
+    """The searches' call takes the stream's state as an int64 with its bits and gives it back
+    so: across the whole 64-bit range, it leaves the stream where Seeds.next would after the
+    call's draws (one per search, the shortcut's, the detours'), and the same seeds give the
+    same path."""
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    warm_up(checker)
+    for seed in (0, 12345, 2**63 - 1, 2**63, 2**64 - 1):
+        paths = []
+        for _ in range(2):
+            stream = Seeds(seed)
+            path = rrt_connect_compiled(
+                Edges(checker, 0.05), START, GOAL[None], arm.lower, arm.upper, stream, 1e18,
+                0.5, finish=Finish(1e18, 20, final_resolution=0.01, max_deviation=0.05,
+                                   detour_radii=np.array([0.05, 0.1])),
+            )  # fmt: skip
+            assert path is not None
+            paths.append(path)
+            expected = Seeds(seed)
+            for _ in range(2 + 1 + 1):  # two searches, the shortcut, the detours
+                expected.next()
+            assert stream.state == expected.state
+        assert np.array_equal(paths[0], paths[1])
+
+
 def test_a_plan_is_reproducible_from_its_seed(walled):
     """Two plans of the same request and seed return the same path; another seed may not."""
     from robocell.planning import JointGoal, MotionPlanRequest, Planner
@@ -519,13 +545,13 @@ def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
             epoch = next_epoch(5 << 40)
             epochs = np.array([epoch, epoch + (1 << 40)], np.int64)
             finish = (seed, 1e18, 20, 0.5, 100, epoch + (2 << 40), 0.02)
-            final = (0.01, 0.05, 8, epoch + (4 << 40), True)
+            final = (0.01, 0.05, 8, epoch + (4 << 40), True, True)
             out = PK.rrt_connect_many(
                 START, GOAL[None], arm.lower, arm.upper, seeds, 1e18, 0.2, 0.5, scratch,
                 scanners, epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish, final,
                 -1,
             )  # fmt: skip
-            paths, lengths, statuses, _, found, shortened, _, sync, not_free = out
+            paths, lengths, statuses, _, found, shortened, _, sync, not_free, _, _ = out
             w = PK._best(statuses, found, 2)
             assert statuses[w] == PK.FOUND and shortened[w]
             c = PK._counters(2, w)
@@ -555,6 +581,58 @@ def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
             compared += 1
     # the winner's path checked in part before it was known to win, in some plans
     assert ahead >= 1 and compared >= 1
+
+
+def test_a_waiting_searchs_thread_checks_the_segments_a_shortcut_offers(walled, irb120):
+    """Side by side, a search's thread that waits with nothing to check takes the segment the
+    other search's shortcut offers while it checks one (its next random try, or the next nearer
+    waypoint), checks it and answers; the shortcut takes that answer instead of checking the
+    segment itself. The shortcut path is the same as with no thread to help."""
+    import numba
+
+    from robocell.planning import _kernels as PK
+    from robocell.scene import _kernels as SK
+    from robocell.scene.checker import SEARCH_SLOTS, next_epoch
+    from tests.conftest import past_a_mesh
+
+    if numba.get_num_threads() < 2:
+        pytest.skip("needs two of the kernel's threads")
+    helped = compared = 0
+    for scene in (walled, past_a_mesh(irb120)):
+        arm = scene.robot.group("arm")
+        checker = scene.checker(arm)
+        warm_up(checker)
+        _, scratch = checker.kernel_inputs()
+        scanners = SK.scanners_in(checker.compiled_inputs)
+        slot = scratch[0].shape[0] - SEARCH_SLOTS
+        # which thread waits is up to the scheduler and the seeds: plans until a few shortcuts
+        # took answers from the other thread
+        for seed in range(400):
+            if seed >= 16 and helped >= 2:
+                break
+            seeds = np.random.default_rng(seed).integers(2**31, size=2)
+            paths = []
+            for helpers in (True, False):
+                epoch = next_epoch(5 << 40)
+                epochs = np.array([epoch, epoch + (1 << 40)], np.int64)
+                finish = (seed, 1e18, 20, 0.5, 100, epoch + (2 << 40), 0.0)
+                final = (0.01, 0.05, 8, epoch + (4 << 40), True, helpers)
+                out = PK.rrt_connect_many(
+                    START, GOAL[None], arm.lower, arm.upper, seeds, 1e18, 0.05, 0.5, scratch,
+                    scanners, epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish,
+                    final, -1,
+                )  # fmt: skip
+                paths_, lengths, statuses, _, found, shortened, _, _, _, boards, _ = out
+                w = PK._best(statuses, found, 2)
+                assert statuses[w] == PK.FOUND and shortened[w]
+                paths.append(paths_[w, : lengths[w]].copy())
+                if helpers:
+                    helped += boards[w, PK.B_HELPED] > 0
+                else:
+                    assert boards[w, PK.B_HELPED] == 0 and boards[w, PK.B_LAST] == 0
+            assert np.array_equal(paths[0], paths[1])
+            compared += 1
+    assert helped >= 1 and compared >= 16
 
 
 def test_the_final_check_takes_the_states_the_searches_threads_found_not_free(walled, irb120):

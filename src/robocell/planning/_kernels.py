@@ -89,6 +89,52 @@ def _atomic_add(typingctx, arr, i, v):  # type: ignore[no-untyped-def]
 
 
 @intrinsic
+def _atomic_cas(typingctx, arr, i, expected, new):  # type: ignore[no-untyped-def]
+    """arr[i] = new if it holds ``expected``, as one atomic step (sequentially consistent)
+    on an int64 array; returns the value before (``expected`` when it was swapped)."""
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        aryty = signature.args[0]
+        ary = context.make_array(aryty)(context, builder, args[0])
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [args[1]])
+        pair = builder.cmpxchg(ptr, args[2], args[3], "seq_cst", "seq_cst")
+        return builder.extract_value(pair, 0)
+
+    return types.int64(arr, i, expected, new), codegen
+
+
+@intrinsic
+def _atomic_load(typingctx, arr, i):  # type: ignore[no-untyped-def]
+    """arr[i] read as one atomic step (acquire) on an int64 array: what the writer stored
+    before its :func:`_atomic_store` of that value is there to read after it. A plain load on
+    x86: a thread that polls it leaves the cache line shared with its writer (an atomic add of
+    0, as :func:`_decided` polls, takes the line from it every time)."""
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        aryty = signature.args[0]
+        ary = context.make_array(aryty)(context, builder, args[0])
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [args[1]])
+        return builder.load_atomic(ptr, "acquire", 8)
+
+    return types.int64(arr, i), codegen
+
+
+@intrinsic
+def _atomic_store(typingctx, arr, i, v):  # type: ignore[no-untyped-def]
+    """arr[i] = v as one atomic step (sequentially consistent) on an int64 array: what was
+    written before it is there to read for a thread that reads v (:func:`_atomic_add` with 0)."""
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        aryty = signature.args[0]
+        ary = context.make_array(aryty)(context, builder, args[0])
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [args[1]])
+        builder.atomic_rmw("xchg", ptr, args[2], "seq_cst")
+        return context.get_dummy_value()
+
+    return types.none(arr, i, v), codegen
+
+
+@intrinsic
 def _pause(typingctx):  # type: ignore[no-untyped-def]
     """The CPU's spin-wait hint (x86's ``pause``; nothing elsewhere), in a thread that polls
     a counter another thread will change."""
@@ -419,7 +465,8 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
     i is the first ``lengths[i]`` rows, statuses, stats (n, 5), the work each had done when
     it found its path, whether its path is shortcut already, the states its shortcut
     checked, the counters the threads share (SYNC_*), and which of the final check's states
-    of each search's path the threads found not FREE (:func:`_final_share`)."""
+    of each search's path the threads found not FREE (:func:`_final_share`), and each
+    search's board for its shortcut and the points it posts (:func:`_edge_free_ahead`)."""
     return (
         np.empty((n, 2 * cap, dof)),
         np.zeros(n, np.int64),
@@ -430,6 +477,8 @@ def _search_outputs(n, cap, dof):  # type: ignore[no-untyped-def]
         np.zeros(n, np.int64),
         np.zeros(_counters(n, n), np.int64),
         np.zeros((n, FINAL_STATES), np.int8),
+        np.zeros((n, BOARD), np.int64),
+        np.empty((n, 2, 2, dof)),
     )
 
 
@@ -449,9 +498,10 @@ def _search_one(
     thread was slow to wake; its shortcut now runs meanwhile. Whichever search wins, the path
     is the same: the winner's shortcut, with the same seed.
 
-    ``final`` = (resolution, max_deviation, chunk, epoch, concurrent): with resolution > 0
-    and a shortcut, the search then checks the winner's path with the others
-    (:func:`_final_share`).
+    ``final`` = (resolution, max_deviation, chunk, epoch, concurrent, helpers): with resolution
+    > 0 and a shortcut, the search then checks the winner's path with the others
+    (:func:`_final_share`); with ``helpers`` too, its shortcut offers segments to a search's
+    thread that waits there with nothing to check (:func:`_edge_free_ahead`).
 
     ``ends_epoch`` ≥ 0: search 0 first classifies the start and the goals (:func:`SK.scan`,
     stamps from ``ends_epoch``) while the others start searching; if one is not FREE, its
@@ -459,7 +509,9 @@ def _search_one(
     :func:`_beaten`). Before the threads were launched, on the calling thread alone, that
     check took 16 µs of a plan (Panda table_pick after an ``ompl`` plan, median, session 39),
     and every search waited for it."""
-    paths, lengths, statuses, stats, found, shortened, shortcut_states, sync, _ = out
+    paths, lengths, statuses, stats, found, shortened, shortcut_states, sync, _, boards, points = (
+        out
+    )
     n = seeds.shape[0]
     _atomic_add(sync, i, 1)
     if (
@@ -476,12 +528,19 @@ def _search_one(
         epochs[i], cap, first_slot + i, found, i, box_lo, box_hi, p_box, whole_for,
     )  # fmt: skip
     seed, sc_deadline, tries, share, min_states, sc_epoch, min_gain = finish
+    resolution_f, max_deviation, chunk, epoch_f, concurrent, helpers = final
     if status == FOUND and tries > 0:
         budget = max(min_states, int(share * st[3]))
+        # open to help from another search's thread once that one waits (_final_share)
+        helped = helpers and concurrent and n > 1 and resolution_f > 0
+        if helped:
+            _atomic_store(boards[i], B_OPEN, 1)
         short, sc = shortcut(
             path, seed, sc_deadline, resolution, scanners, _stamps(sc_epoch, n, i), tries,
-            budget, first_slot + i, min_gain, found, i,
+            budget, first_slot + i, min_gain, found, i, boards[i], points[i],
         )  # fmt: skip
+        if helped:
+            _atomic_store(boards[i], B_OPEN, 0)
         if short.shape[0] <= paths.shape[1]:
             path = short
             shortened[i] = True
@@ -491,11 +550,10 @@ def _search_one(
     statuses[i] = status
     stats[i] = st
     _atomic_add(sync, n + i, 1)  # done: what it wrote above is there to read
-    resolution_f, max_deviation, chunk, epoch_f, concurrent = final
     if resolution_f > 0 and tries > 0:
         _final_share(
             out, n, resolution_f, max_deviation, chunk, epoch_f, concurrent, deadline, scanners,
-            first_slot + i, i,
+            first_slot + i, i, resolution,
         )  # fmt: skip
 
 
@@ -572,6 +630,7 @@ def _decided(sync, statuses, found, n):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def _final_share(
     out, n, resolution, max_deviation, chunk, epoch, concurrent, deadline, scanners, slot, me,
+    edge_resolution,
 ):  # type: ignore[no-untyped-def]  # fmt: skip
     """Search ``me``'s thread, once its search is done, checks the winner's shortcut path with
     the others, as :func:`_final_check` would classify it first (:func:`_final_batch`):
@@ -613,7 +672,7 @@ def _final_share(
     paths, the waiting thread scanned 40 % of the posted chunks, but the kernel call was
     slower, hot and after an ``ompl`` plan (Panda table_pick 380 → 462 µs, table_under_pick
     721 → 774 hot; the board alone, with no thread to help, 511 → 602): not kept."""
-    paths, _, statuses, _, found, shortened, _, sync, not_free = out
+    paths, _, statuses, _, found, shortened, _, sync, not_free, boards, points = out
     dof = paths.shape[2]
     sc = scanners[slot]
     # the path this thread checks (-1: none yet): its first batch, their rows in the final
@@ -626,6 +685,12 @@ def _final_share(
     ahead = statuses[me] == FOUND and shortened[me]
     t0 = _clock()
     idle = -1.0  # when it started to wait with nothing to check
+    # a thread with nothing to check helps another search's shortcut (_help): its checks at
+    # the searches' ``edge_resolution`` on its own slot, stamps above its final check's
+    help_epoch = _stamps(epoch, n, me) + (1 << 38)
+    help_stats = np.zeros(4, np.int64)
+    help_buf = np.empty((0, dof))
+    seg = np.empty((2, dof))
     while True:
         w = _decided(sync, statuses, found, n)
         if w >= 0:
@@ -643,6 +708,14 @@ def _final_share(
             _atomic_add(sync, mine + SYNC_AHEAD, taken)
             ahead = taken > 0  # else its first batch is all taken
             continue
+        if _others_open(boards, me):
+            if help_buf.shape[0] == 0:
+                help_buf = np.empty((SK.SCAN_STATES, dof))
+            if _help(
+                boards, points, me, edge_resolution, sc, help_epoch, help_buf, help_stats, seg
+            ):
+                idle = -1.0
+                continue
         now = _clock()
         if now > deadline:
             return
@@ -655,7 +728,7 @@ def _final_share(
                         return
         if idle < 0.0:
             idle = now
-        if now - idle > SPIN_WAIT:
+        if now - idle > SPIN_WAIT and not _others_open(boards, me):
             _nap(NAP_US)
         else:
             _pause()
@@ -684,7 +757,7 @@ def _prepared(out, n, i, resolution, max_deviation):  # type: ignore[no-untyped-
     """Search i's path as the final check classifies it (:func:`_final_batch`: its first
     batch, their rows, the corners' stretches) and whether its states' marks fit ``out``'s;
     the sizes set in its counters (the same in every thread)."""
-    paths, lengths, _, _, _, _, _, sync, not_free = out
+    paths, lengths, _, _, _, _, _, sync, not_free, _, _ = out
     both, order, later = _final_batch(paths[i, : lengths[i]], resolution, max_deviation)
     c = _counters(n, i)
     sync[c + SYNC_STATES] = both.shape[0]
@@ -746,28 +819,155 @@ def _edge_free(a, b, resolution, sc, epoch, buf, stats):  # type: ignore[no-unty
     return k == n
 
 
+# A search's board (_search_outputs' boards and board points): while its shortcut checks one
+# segment, it offers the next one it would check if that one is not free to a thread that waits
+# with nothing to check (_help), and takes that answer instead of checking the segment itself
+# (:func:`_edge_free_ahead`). The path comes out as without the board: the same segments are
+# checked, in the same order, only some on another thread. The job word is a job's number × 4
+# and its state; the answer word the job's number << 32, its states checked << 1, and 1 if free.
+B_JOB, B_ANSWER, B_LAST, B_OPEN = 0, 1, 2, 3
+B_HELPED = 4  # the answers its shortcut took (a count, for tests and benchmarks)
+BOARD = 16  # a board's row: 128 bytes, so that two searches' boards share no cache line
+JOB_OPEN, JOB_HELPED, JOB_BACK = 0, 1, 2
+# how long a shortcut waits for a helper's answer before it checks the segment itself (the
+# helper's thread may have lost its core)
+HELP_WAIT = 0.0002
+
+
 @njit(cache=True)
-def _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline, found, me):  # type: ignore[no-untyped-def]
+def _edge_free_ahead(a, b, c, d, offer, resolution, sc, epoch, buf, stats, board, points):  # type: ignore[no-untyped-def]
+    """:func:`_edge_free` of a → b; with ``offer``, the segment c → d (the caller's next if a → b
+    is not free) first posted on ``board`` (``points``: its two buffers) for a helper. Returns
+    (whether a → b is free, c → d's answer when a → b is not and a helper gave it: 1 free, 0
+    not, −1 none; the states that check counted, as :func:`_edge_free` counts them)."""
+    if not offer:
+        return _edge_free(a, b, resolution, sc, epoch, buf, stats), -1, 0
+    job = board[B_LAST] + 1
+    board[B_LAST] = job
+    k = job % 2
+    for j in range(c.shape[0]):
+        points[k, 0, j] = c[j]
+        points[k, 1, j] = d[j]
+    _atomic_store(board, B_JOB, job * 4 + JOB_OPEN)
+    free = _edge_free(a, b, resolution, sc, epoch, buf, stats)
+    w = job * 4
+    if _atomic_cas(board, B_JOB, w + JOB_OPEN, w + JOB_BACK) == w + JOB_OPEN or free:
+        return free, -1, 0  # not taken, or its answer not needed (it comes, and is ignored)
+    t0 = _clock()
+    while True:
+        v = _atomic_load(board, B_ANSWER)
+        if (v >> 32) == job:
+            return free, v & 1, (v >> 1) & 0x7FFFFFFF
+        if _clock() - t0 > HELP_WAIT:
+            return free, -1, 0
+        _pause()
+
+
+@njit(cache=True)
+def _help(boards, points, me, resolution, sc, epoch, buf, stats, seg):  # type: ignore[no-untyped-def]
+    """For search ``me``'s thread while it waits with nothing to check: takes a segment another
+    search's shortcut posted (:func:`_edge_free_ahead`), checks it on this thread's scanner
+    ``sc`` (stamps from ``epoch`` + ``stats[2]``) and answers. ``seg`` (2, dof): room for the
+    segment. Returns whether it took one."""
+    for j in range(boards.shape[0]):
+        if j == me:
+            continue
+        w = _atomic_load(boards[j], B_JOB)
+        if w == 0 or w % 4 != JOB_OPEN:
+            continue
+        job = w // 4
+        k = job % 2
+        for i in range(seg.shape[1]):
+            seg[0, i] = points[j, k, 0, i]
+            seg[1, i] = points[j, k, 1, i]
+        # taken while still posted: then the owner wrote no later job over the copy
+        if _atomic_cas(boards[j], B_JOB, w, w + JOB_HELPED) != w:
+            continue
+        before = stats[3]
+        free = _edge_free(seg[0], seg[1], resolution, sc, epoch, buf, stats)
+        _atomic_store(boards[j], B_ANSWER, (job << 32) | ((stats[3] - before) << 1) | int(free))
+        return True
+    return False
+
+
+@njit(cache=True)
+def _others_open(boards, me):  # type: ignore[no-untyped-def]
+    """Whether another search's shortcut takes help now (its board open)."""
+    for j in range(boards.shape[0]):
+        if j != me and _atomic_load(boards[j], B_OPEN) == 1:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline, found, me, board, points):  # type: ignore[no-untyped-def]
     """From each kept waypoint, jump to the farthest one reachable in a straight line (until
-    ``deadline``, or until search ``me`` lost: :func:`_lost`)."""
+    ``deadline``, or until search ``me`` lost: :func:`_lost`); the next nearer waypoint offered
+    on ``board`` while one is checked (:func:`_edge_free_ahead`)."""
     n = path.shape[0]
     keep = np.empty(n, np.int64)
     keep[0] = 0
     m = 1
     i = 0
+    offer = board[B_OPEN] == 1
+    known_states = 0
     while i < n - 1:
         j = n - 1
+        known = -1
         while j > i + 1:
             if _clock() > deadline or _lost(found, me):
                 j = i + 1
                 break
-            if _edge_free(path[i], path[j], resolution, sc, epoch, buf, stats):
+            if known >= 0:  # checked by a helper
+                free = known == 1
+                stats[3] += known_states
+                board[B_HELPED] += 1
+                known = -1
+            else:
+                free, known, known_states = _edge_free_ahead(
+                    path[i], path[j], path[i], path[j - 1], offer and j - 1 > i + 1,
+                    resolution, sc, epoch, buf, stats, board, points,
+                )  # fmt: skip
+            if free:
                 break
             j -= 1
         keep[m] = j
         m += 1
         i = j
     return path[keep[:m]].copy()
+
+
+TRY_CHECK, TRY_FAILS, TRY_END = 0, 1, 2  # _shortcut_try
+
+
+@njit(cache=True)
+def _shortcut_try(path, u1, u2, min_gain):  # type: ignore[no-untyped-def]
+    """A random shortcut's segment on ``path``, between the points at the shares ``u1`` and
+    ``u2`` of its length: (TRY_CHECK, its ends, the segments they lie on), or TRY_FAILS when
+    they lie on one segment or it would shorten the stretch by less than the share
+    ``min_gain`` (it fails unchecked), or TRY_END when the path has no length."""
+    K = path.shape[0]
+    cum = np.zeros(K)
+    for s in range(1, K):
+        cum[s] = cum[s - 1] + np.sqrt(np.sum((path[s] - path[s - 1]) ** 2))
+    total = cum[K - 1]
+    if total < 1e-9:
+        return TRY_END, path[0], path[0], 0, 0
+    s1 = u1 * total
+    s2 = u2 * total
+    if s1 > s2:
+        s1, s2 = s2, s1
+    i1 = min(np.searchsorted(cum, s1, side="right") - 1, K - 2)
+    i2 = min(np.searchsorted(cum, s2, side="right") - 1, K - 2)
+    if i1 == i2:
+        return TRY_FAILS, path[0], path[0], i1, i2
+    l1 = max(cum[i1 + 1] - cum[i1], 1e-12)
+    l2 = max(cum[i2 + 1] - cum[i2], 1e-12)
+    p1 = path[i1] + (path[i1 + 1] - path[i1]) * ((s1 - cum[i1]) / l1)
+    p2 = path[i2] + (path[i2 + 1] - path[i2]) * ((s2 - cum[i2]) / l2)
+    if np.sqrt(np.sum((p2 - p1) ** 2)) > (s2 - s1) - max(1e-6, min_gain * (s2 - s1)):
+        return TRY_FAILS, p1, p2, i1, i2
+    return TRY_CHECK, p1, p2, i1, i2
 
 
 @njit(cache=True)
@@ -784,6 +984,8 @@ def shortcut(
     min_gain,
     found,
     me,
+    board,
+    points,
 ):  # type: ignore[no-untyped-def]
     """:func:`robocell.planning.rrt.shortcut` compiled: greedy waypoint skipping, random
     shortcuts between points on the path (at most ``max_tries``, until 12 fail in a row or
@@ -796,45 +998,64 @@ def shortcut(
     It stops early, its path left as far as it got, once search ``me`` of a race lost
     (:func:`_lost`: ``found`` as :func:`rrt_connect` takes it; one entry and ``me`` 0 when
     there is no race): the winner's thread waited for it otherwise (session 36: 30 µs of a
-    Panda table_pick plan's kernel call, median; the plans 3 % faster)."""
+    Panda table_pick plan's kernel call, median; the plans 3 % faster).
+
+    ``board`` and ``points``: a board of :func:`_edge_free_ahead` (the search's, open while it
+    shortcuts with another search's thread there to help; else closed: ``B_OPEN`` 0). Open, each
+    check offers the next try's segment, drawn early on the path as it stands (a try's two
+    draws do not depend on the try before). The answers are the same, so is the path."""
     np.random.seed(seed)  # noqa: NPY002 (numba's generator)
     dof = path.shape[1]
     stats = np.zeros(4, np.int64)
     buf = np.empty((SK.SCAN_STATES, dof))
     sc = scanners[slot]
-    path = _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline, found, me)
+    path = _skip_waypoints(
+        path, resolution, sc, epoch, buf, stats, deadline, found, me, board, points
+    )
     stop_at = stats[3] + budget
     fails = 0
     tries = 0
     changed = False
+    offer = board[B_OPEN] == 1
+    ahead = False  # the next try's draws taken
+    u1_next, u2_next = 0.0, 0.0
+    known = -1  # the next try's answer from a helper (see _edge_free_ahead)
+    known_states = 0
     while path.shape[0] > 2 and tries < max_tries and fails < 12 and _clock() < deadline:
         if stats[3] >= stop_at or _lost(found, me):
             break
         tries += 1
-        K = path.shape[0]
-        cum = np.zeros(K)
-        for s in range(1, K):
-            cum[s] = cum[s - 1] + np.sqrt(np.sum((path[s] - path[s - 1]) ** 2))
-        total = cum[K - 1]
-        if total < 1e-9:
+        if ahead:
+            u1, u2 = u1_next, u2_next
+            ahead = False
+        else:
+            u1 = np.random.random()  # noqa: NPY002
+            u2 = np.random.random()  # noqa: NPY002
+        go, p1, p2, i1, i2 = _shortcut_try(path, u1, u2, min_gain)
+        if go == TRY_END:
             break
-        s1 = np.random.random() * total  # noqa: NPY002
-        s2 = np.random.random() * total  # noqa: NPY002
-        if s1 > s2:
-            s1, s2 = s2, s1
-        i1 = min(np.searchsorted(cum, s1, side="right") - 1, K - 2)
-        i2 = min(np.searchsorted(cum, s2, side="right") - 1, K - 2)
-        if i1 == i2:
+        if go == TRY_FAILS:
             fails += 1
             continue
-        l1 = max(cum[i1 + 1] - cum[i1], 1e-12)
-        l2 = max(cum[i2 + 1] - cum[i2], 1e-12)
-        p1 = path[i1] + (path[i1 + 1] - path[i1]) * ((s1 - cum[i1]) / l1)
-        p2 = path[i2] + (path[i2 + 1] - path[i2]) * ((s2 - cum[i2]) / l2)
-        if np.sqrt(np.sum((p2 - p1) ** 2)) > (s2 - s1) - max(1e-6, min_gain * (s2 - s1)):
-            fails += 1
-            continue
-        if _edge_free(p1, p2, resolution, sc, epoch, buf, stats):
+        if known >= 0:  # this segment, checked by a helper while the last try was
+            free = known == 1
+            stats[3] += known_states
+            board[B_HELPED] += 1
+            known = -1
+        else:
+            go_next, q1, q2 = TRY_FAILS, p1, p2
+            if offer and tries < max_tries and fails + 1 < 12:
+                u1_next = np.random.random()  # noqa: NPY002
+                u2_next = np.random.random()  # noqa: NPY002
+                ahead = True
+                go_next, q1, q2, _, _ = _shortcut_try(path, u1_next, u2_next, min_gain)
+            free, known, known_states = _edge_free_ahead(
+                p1, p2, q1, q2, go_next == TRY_CHECK, resolution, sc, epoch, buf, stats, board,
+                points,
+            )  # fmt: skip
+        if free:
+            known = -1  # the next try is on the new path
+            K = path.shape[0]
             new = np.empty((i1 + 1 + 2 + K - i2 - 1, dof))
             new[: i1 + 1] = path[: i1 + 1]
             new[i1 + 1] = p1
@@ -846,7 +1067,9 @@ def shortcut(
         else:
             fails += 1
     if changed:  # else the first pass's result stands (a second would redo its checks)
-        path = _skip_waypoints(path, resolution, sc, epoch, buf, stats, deadline, found, me)
+        path = _skip_waypoints(
+            path, resolution, sc, epoch, buf, stats, deadline, found, me, board, points
+        )
     # repeated waypoints dropped (at least the two ends)
     keep = np.ones(path.shape[0], np.bool_)
     for s in range(1, path.shape[0]):
@@ -888,7 +1111,7 @@ def detour(a, b, near, lower, upper, radii, seed, resolution, scanners, epoch): 
 # instead of the model's and the scratch's 69 arrays: see SK.KernelInputs).
 @njit(cache=True, nogil=True)
 def plan_in(
-    start, goals, lower, upper, stream, searches, deadline, resolution, step, inputs, epoch,
+    start, goals, lower, upper, stream_bits, searches, deadline, resolution, step, inputs, epoch,
     cap, first_slot, box_margin, p_box, whole_for, side_by_side, shortcut_deadline,
     shortcut_tries, shortcut_share, shortcut_min, shortcut_min_gain, check_ends,
     final_resolution, max_deviation, final_chunk, omp, mend_radii,
@@ -900,11 +1123,12 @@ def plan_in(
     shortcuts that gain less than the share ``shortcut_min_gain`` not checked).
 
     The seeds come from the plan's stream (:class:`robocell.planning.rrt.Seeds`, its state
-    ``stream``, uint64), in the order the planner drew them in Python until session 39: one
-    per search, then the shortcut's (if ``shortcut_tries`` > 0), then the detours' (if
-    ``mend_radii``). Those draws, the list of seeds and its array took 18 µs of Python on a
-    plan's cold caches (Panda table_pick after an ``ompl`` plan, measured); here they take
-    nanoseconds.
+    ``stream_bits``: the uint64's bits as an int64, in and out; a numpy uint64 made in Python
+    cost 20 µs of a plan on cold caches, measured), in the order the planner drew them in Python
+    until session 39: one per search, then the shortcut's (if ``shortcut_tries`` > 0), then the
+    detours' (if ``mend_radii``). Those draws, the list of seeds and its array took 18 µs of
+    Python on a plan's cold caches (Panda table_pick after an ``ompl`` plan, measured); here
+    they take nanoseconds.
 
     The searches (``searches`` of them): side by side on the kernel's threads
     (:func:`rrt_connect_many`) or one after the other (each later one stops once it has done
@@ -951,6 +1175,7 @@ def plan_in(
     is the searches' own code. In session 30 the same scan after the race, in the calling thread
     alone, made plans slower: on two threads the final check took less."""
     scratch, scanners = inputs.scratch, inputs.scanners
+    stream = np.uint64(stream_bits)
     dof = start.shape[0]
     n = searches
     seeds = np.empty(n, np.int64)
@@ -985,7 +1210,7 @@ def plan_in(
         epoch + (n << 40), shortcut_min_gain,
     )  # fmt: skip
     final_epoch = epoch + ((n + 2) << 40)
-    final = (final_resolution, max_deviation, final_chunk, final_epoch, concurrent)
+    final = (final_resolution, max_deviation, final_chunk, final_epoch, concurrent, True)
     if side_by_side:
         out = rrt_connect_many(
             start, goals, lower, upper, seeds, deadline, resolution, step, scratch, scanners,
@@ -1002,15 +1227,16 @@ def plan_in(
             _search_one(
                 np.int64(i), start, goals, lower, upper, seeds, deadline, resolution, step,
                 scratch, scanners, epochs, cap, first_slot, box_lo, box_hi, p_box, whole_for,
-                finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent),
+                finish, (0.0, max_deviation, final_chunk, final_epoch, concurrent, False),
                 ends_epoch, out,
             )  # fmt: skip
             if out[2][0] == BLOCKED:
                 break
-    paths, lengths, statuses, stats, found, shortened, shortcut_done, sync, not_free = out
+    paths, lengths, statuses, stats, found, shortened, shortcut_done, sync, not_free, _, _ = out
     if statuses[0] == BLOCKED:
         return (
-            stream, mend_seed, np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0, False,
+            np.int64(stream), mend_seed, np.empty((0, dof)), BLOCKED, np.zeros(5, np.int64), 0,
+            False,
             np.zeros(0, np.int8), JUDGED_NOT, max_deviation,
         )  # fmt: skip
     best = _best(statuses, found, n)
@@ -1021,7 +1247,7 @@ def plan_in(
         path, st = shortcut(
             path, shortcut_seed, shortcut_deadline, resolution, scanners, epoch + (n << 40),
             shortcut_tries, budget, first_slot, shortcut_min_gain, np.zeros(1, np.int64),
-            np.int64(0),
+            np.int64(0), np.zeros(BOARD, np.int64), np.empty((2, 2, dof)),
         )  # fmt: skip
         shortcut_states = st[3]
     # the threads' check covered this path whole (_final_share): every state FREE, or which
@@ -1044,7 +1270,8 @@ def plan_in(
         if judged != JUDGED_NOT:
             known = known[:0]
     return (
-        stream, mend_seed, path, statuses[best], stats[best].copy(), shortcut_states, free, known,
+        np.int64(stream), mend_seed, path, statuses[best], stats[best].copy(), shortcut_states,
+        free, known,
         judged, dev,
     )  # fmt: skip
 
@@ -1054,7 +1281,8 @@ def shortcut_in(path, seed, deadline, resolution, inputs, epoch, max_tries, budg
     """:func:`shortcut` on a KernelInputs."""
     return shortcut(
         path, seed, deadline, resolution, inputs.scanners, epoch, max_tries, budget, np.int64(0),
-        min_gain, np.zeros(1, np.int64), np.int64(0),
+        min_gain, np.zeros(1, np.int64), np.int64(0), np.zeros(BOARD, np.int64),
+        np.empty((2, 2, path.shape[1])),
     )  # fmt: skip
 
 

@@ -345,7 +345,7 @@ def rrt_connect_compiled(
             side_by_side = searches > 1 and _threadsafe_layer()
         state, detour_seed, path, status, st, shortcut_states, free, known, judged, dev = (
             PK.plan_in(
-                start, goals, lower, upper, np.uint64(stream.state), searches, deadline,
+                start, goals, lower, upper, _as_int64(stream.state), searches, deadline,
                 edges.resolution, step, inputs, next_epoch((searches + 4) << 40), cap,
                 first_slot, box_margin, box_share, whole_for, side_by_side, finish.deadline,
                 finish.tries, finish.share, finish.min_states, float(finish.min_gain),
@@ -353,7 +353,7 @@ def rrt_connect_compiled(
                 int(finish.final_chunk), _omp(), radii,
             )
         )  # fmt: skip
-    stream.state = int(state)
+    stream.state = int(state) & _MASK64
     edges.stats.detour_seed = int(detour_seed) if len(radii) else None
     edges.stats.blocked_ends = status == PK.BLOCKED
     edges.stats.final_free = bool(free)
@@ -364,6 +364,12 @@ def rrt_connect_compiled(
     edges.stats.nodes = int(st[1])
     edges.stats.states += int(st[3]) + int(shortcut_states)
     return path if status == PK.FOUND else None
+
+
+def _as_int64(state: int) -> int:
+    """A stream state in [0, 2**64) as the int64 with its bits (the compiled call's
+    ``stream_bits``)."""
+    return state - (1 << 64) if state >= 1 << 63 else state
 
 
 def _threadsafe_layer() -> bool:
@@ -465,7 +471,7 @@ def warm_up(checker: BatchChecker, searches_only: bool = False) -> None:
     # one after the other (rrt_connect_compiled)
     for side_by_side in (True, False):
         PK.plan_in(
-            q, q[None, :], q - 1, q + 1, np.uint64(0), SEARCH_SLOTS, 0.0, 0.05, 1.0, inputs,
+            q, q[None, :], q - 1, q + 1, 0, SEARCH_SLOTS, 0.0, 0.05, 1.0, inputs,
             next_epoch((SEARCH_SLOTS + 4) << 40), 16, scratch[0].shape[0] - SEARCH_SLOTS, 1.0,
             0.5, 40, side_by_side, 0.0, 1, 0.5, 1, 0.0, False, 0.01, 0.05, 32, False,
             np.zeros(1),
