@@ -728,7 +728,7 @@ def _final_share(
                         return
         if idle < 0.0:
             idle = now
-        if now - idle > SPIN_WAIT and not _others_open(boards, me):
+        if now - idle > SPIN_WAIT:  # no job for that long either: the owner may lack a core
             _nap(NAP_US)
         else:
             _pause()
