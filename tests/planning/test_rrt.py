@@ -512,6 +512,34 @@ def test_the_searches_threads_check_the_winners_path_as_the_final_check_does(wal
     assert seen[threads] == {False, True} and True in seen[1]
 
 
+def _race(checker, seed, resolution, min_gain, helpers=True):
+    """The kernel's two searches side by side from START to GOAL (``rrt_connect_many``, seeds
+    drawn from ``seed``), each shortening the path it finds, then their threads' final check at
+    0.01 rad; ``helpers``: a waiting thread may help the other's shortcut. Returns the outputs
+    and the winner, which found and shortened its path."""
+    from robocell.planning import _kernels as PK
+    from robocell.scene import _kernels as SK
+    from robocell.scene.checker import SEARCH_SLOTS, next_epoch
+
+    arm = checker.group
+    _, scratch = checker.kernel_inputs()
+    scanners = SK.scanners_in(checker.compiled_inputs)
+    slot = scratch[0].shape[0] - SEARCH_SLOTS
+    seeds = np.random.default_rng(seed).integers(2**31, size=2)
+    epoch = next_epoch(5 << 40)
+    epochs = np.array([epoch, epoch + (1 << 40)], np.int64)
+    finish = (seed, 1e18, 20, 0.5, 100, epoch + (2 << 40), min_gain)
+    final = (0.01, 0.05, 8, epoch + (4 << 40), True, helpers)
+    out = PK.rrt_connect_many(
+        START, GOAL[None], arm.lower, arm.upper, seeds, 1e18, resolution, 0.5, scratch, scanners,
+        epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish, final, -1,
+    )  # fmt: skip
+    statuses, found, shortened = out[2], out[4], out[5]
+    w = PK._best(statuses, found, 2)
+    assert statuses[w] == PK.FOUND and shortened[w]
+    return out, w
+
+
 def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
     """Side by side, a search that found its path checks it while the other search runs on
     (in some plans the winner's path is checked in part before it is known to win); each
@@ -522,38 +550,23 @@ def test_a_searchs_thread_checks_its_path_while_it_waits(walled, irb120):
 
     from robocell.planning import _kernels as PK
     from robocell.scene import _kernels as SK
-    from robocell.scene.checker import SEARCH_SLOTS, next_epoch
+    from robocell.scene.checker import next_epoch
     from tests.conftest import past_a_mesh
 
     if numba.get_num_threads() < 2:
         pytest.skip("needs two of the kernel's threads")
     ahead = compared = 0
     for scene in (walled, past_a_mesh(irb120)):
-        arm = scene.robot.group("arm")
-        checker = scene.checker(arm)
+        checker = scene.checker(scene.robot.group("arm"))
         warm_up(checker)
-        _, scratch = checker.kernel_inputs()
-        scanners = SK.scanners_in(checker.compiled_inputs)
-        slot = scratch[0].shape[0] - SEARCH_SLOTS
         # which thread ends first is up to the scheduler: plans until the winner's path was
         # checked ahead in a few (9, 16 and 11 of 800 plans in three runs here, alone and
         # after other tests: 0 in 1200 would be a chance of about 1e-6)
         for seed in range(600):
             if seed >= 16 and ahead >= 2:
                 break
-            seeds = np.random.default_rng(seed).integers(2**31, size=2)
-            epoch = next_epoch(5 << 40)
-            epochs = np.array([epoch, epoch + (1 << 40)], np.int64)
-            finish = (seed, 1e18, 20, 0.5, 100, epoch + (2 << 40), 0.02)
-            final = (0.01, 0.05, 8, epoch + (4 << 40), True, True)
-            out = PK.rrt_connect_many(
-                START, GOAL[None], arm.lower, arm.upper, seeds, 1e18, 0.2, 0.5, scratch,
-                scanners, epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish, final,
-                -1,
-            )  # fmt: skip
-            paths, lengths, statuses, _, found, shortened, _, sync, not_free, _, _ = out
-            w = PK._best(statuses, found, 2)
-            assert statuses[w] == PK.FOUND and shortened[w]
+            out, w = _race(checker, seed, 0.2, 0.02)
+            paths, lengths, _, _, _, _, _, sync, not_free, _, _ = out
             c = PK._counters(2, w)
             ahead += sync[c + PK.SYNC_AHEAD] > 0
             n_first, n_later = sync[c + PK.SYNC_STATES], sync[c + PK.SYNC_LATER_STATES]
@@ -591,40 +604,23 @@ def test_a_waiting_searchs_thread_checks_the_segments_a_shortcut_offers(walled, 
     import numba
 
     from robocell.planning import _kernels as PK
-    from robocell.scene import _kernels as SK
-    from robocell.scene.checker import SEARCH_SLOTS, next_epoch
     from tests.conftest import past_a_mesh
 
     if numba.get_num_threads() < 2:
         pytest.skip("needs two of the kernel's threads")
     helped = compared = 0
     for scene in (walled, past_a_mesh(irb120)):
-        arm = scene.robot.group("arm")
-        checker = scene.checker(arm)
+        checker = scene.checker(scene.robot.group("arm"))
         warm_up(checker)
-        _, scratch = checker.kernel_inputs()
-        scanners = SK.scanners_in(checker.compiled_inputs)
-        slot = scratch[0].shape[0] - SEARCH_SLOTS
         # which thread waits is up to the scheduler and the seeds: plans until a few shortcuts
         # took answers from the other thread
         for seed in range(400):
             if seed >= 16 and helped >= 2:
                 break
-            seeds = np.random.default_rng(seed).integers(2**31, size=2)
             paths = []
             for helpers in (True, False):
-                epoch = next_epoch(5 << 40)
-                epochs = np.array([epoch, epoch + (1 << 40)], np.int64)
-                finish = (seed, 1e18, 20, 0.5, 100, epoch + (2 << 40), 0.0)
-                final = (0.01, 0.05, 8, epoch + (4 << 40), True, helpers)
-                out = PK.rrt_connect_many(
-                    START, GOAL[None], arm.lower, arm.upper, seeds, 1e18, 0.05, 0.5, scratch,
-                    scanners, epochs, 1 << 14, slot, arm.lower, arm.upper, 0.0, 40, finish,
-                    final, -1,
-                )  # fmt: skip
-                paths_, lengths, statuses, _, found, shortened, _, _, _, boards, _ = out
-                w = PK._best(statuses, found, 2)
-                assert statuses[w] == PK.FOUND and shortened[w]
+                out, w = _race(checker, seed, 0.05, 0.0, helpers)
+                paths_, lengths, _, _, _, _, _, _, _, boards, _ = out
                 paths.append(paths_[w, : lengths[w]].copy())
                 if helpers:
                     helped += boards[w, PK.B_HELPED] > 0
