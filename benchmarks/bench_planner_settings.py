@@ -81,10 +81,12 @@ def main() -> None:
                         times[name].append(took * 1e3 if plan.success else float("nan"))
                         lengths[name].append(plan.path_length if plan.success else float("nan"))
                         checked[name].append(plan.stats.get("checked_states", float("nan")))
-                        states = PK.segment_states(plan.path, settings[name].validation_resolution)[
-                            0
-                        ]
-                        path_states[name].append(len(states) if plan.success else float("nan"))
+                        # a failed plan's path is empty: segment_states needs its start
+                        resolution = settings[name].validation_resolution
+                        n = float("nan")
+                        if plan.success:
+                            n = len(PK.segment_states(plan.path, resolution)[0])
+                        path_states[name].append(n)
             for name in names:
                 t = np.array(times[name])
                 print(
