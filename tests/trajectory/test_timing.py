@@ -124,6 +124,25 @@ def test_resample_and_sample(arm, path):
         traj.resample(0.0)
 
 
+def test_samples_between_knots_are_the_quintic_through_them(arm, path):
+    """At the knots a sample is the knot; between them its velocity and acceleration are the
+    derivatives of its positions (central differences), and at each interval's ends its
+    acceleration is that interval's (the joint accelerations jump at a knot)."""
+    traj = time_optimal(arm, path)
+    at_knots = traj.sample(traj.times)
+    assert np.allclose(at_knots.positions, traj.positions, atol=1e-12)
+    assert np.allclose(at_knots.velocities, traj.velocities, atol=1e-9)
+    i = np.arange(0, len(traj) - 1, 7)
+    t = traj.times[i] + 0.37 * np.diff(traj.times)[i]
+    h = 1e-5
+    p = [traj.sample(t + k * h).positions for k in (-1, 0, 1)]
+    s = traj.sample(t)
+    assert np.allclose(s.velocities, (p[2] - p[0]) / (2 * h), atol=1e-5)
+    assert np.allclose(s.accelerations, (p[2] - 2 * p[1] + p[0]) / h**2, atol=1e-2)
+    ends = traj.sample(traj.times[i] + 1e-12 * np.diff(traj.times)[i])
+    assert np.allclose(ends.accelerations, traj.segment_accelerations[i, 0], atol=1e-6)
+
+
 @pytest.mark.parametrize(
     "call",
     [

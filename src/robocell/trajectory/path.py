@@ -142,33 +142,14 @@ class BlendedPath(_ArcLengthPath):
         return np.unique(np.concatenate(pts))
 
     def __call__(self, path_positions: ArrayLike, order: int = 0) -> NDArray[np.float64]:
+        """The path's points (``order`` 0), unit tangents (1) or curvature vectors (2) at arc
+        lengths ``path_positions`` (scalar or (N,)), clamped to [0, length]."""
         s = np.asarray(path_positions, dtype=float)
-        scalar = s.ndim == 0
-        ss = np.clip(np.atleast_1d(s), 0.0, self._length)
-        out = np.empty((ss.shape[0], self._dof))
-        seg = np.clip(np.searchsorted(self._starts, ss, side="right") - 1, 0, len(self._kinds) - 1)
-        for k in np.unique(seg):
-            m = seg == k
-            local = (ss[m] - self._starts[k])[:, None]
-            if self._kinds[k] == 0:
-                p0, u, _ = self._data[k]
-                if order == 0:
-                    out[m] = p0 + local * u
-                elif order == 1:
-                    out[m] = u
-                else:
-                    out[m] = 0.0
-            else:
-                c, e1, e2, r, _ = self._data[k]
-                th = local / r[0]
-                cos_t, sin_t = np.cos(th), np.sin(th)
-                if order == 0:
-                    out[m] = c + r[0] * (cos_t * e1 + sin_t * e2)
-                elif order == 1:
-                    out[m] = -sin_t * e1 + cos_t * e2
-                else:
-                    out[m] = (-cos_t * e1 - sin_t * e2) / r[0]
-        return out[0] if scalar else out
+        starts, origin, d1, d2, _, radius, kind = self.piece_arrays()
+        out = TK.blended_points(
+            starts, origin, d1, d2, radius, kind == ARC, np.ascontiguousarray(s.ravel()), order
+        )
+        return out[0] if s.ndim == 0 else out  # type: ignore[no-any-return]
 
     def piece_arrays(self) -> tuple[NDArray[Any], ...]:
         """The pieces of :meth:`speed_bounds` as arrays, for compiled code (see

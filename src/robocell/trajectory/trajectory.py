@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robocell.errors import PlanningError, floats, number
 from robocell.robot.model import JointGroup
+from robocell.trajectory import _kernels as TK
 
 
 @dataclass(frozen=True)
@@ -98,27 +99,15 @@ class JointTrajectory:
             m = ts.shape[0]
             z = np.zeros((m, self.dof))
             return TrajectorySample(ts, np.tile(self.positions[0], (m, 1)), z, z.copy())
-        i = np.clip(np.searchsorted(self.times, ts, side="right") - 1, 0, len(self) - 2)
-        h = (self.times[i + 1] - self.times[i])[:, None]
-        s = (ts - self.times[i])[:, None] / h
-        p0, p1 = self.positions[i], self.positions[i + 1]
-        v0, v1 = self.velocities[i] * h, self.velocities[i + 1] * h
+        # quintic Hermite on each knot interval: positions, velocities and accelerations
+        # matching at both of its knots
         if self.segment_accelerations is None:
-            a0, a1 = self.accelerations[i] * h * h, self.accelerations[i + 1] * h * h
+            a0, a1 = self.accelerations[:-1], self.accelerations[1:]
         else:
-            a0 = self.segment_accelerations[i, 0] * h * h
-            a1 = self.segment_accelerations[i, 1] * h * h
-        # quintic Hermite: p(s) = Σ c_k s^k with p, p', p'' matching at s = 0 and s = 1
-        c0, c1, c2 = p0, v0, 0.5 * a0
-        d = p1 - p0 - v0 - 0.5 * a0
-        e = v1 - v0 - a0
-        f = a1 - a0
-        c3 = 10 * d - 4 * e + 0.5 * f
-        c4 = -15 * d + 7 * e - f
-        c5 = 6 * d - 3 * e + 0.5 * f
-        pos = c0 + s * (c1 + s * (c2 + s * (c3 + s * (c4 + s * c5))))
-        vel = (c1 + s * (2 * c2 + s * (3 * c3 + s * (4 * c4 + s * 5 * c5)))) / h
-        acc = (2 * c2 + s * (6 * c3 + s * (12 * c4 + s * 20 * c5))) / (h * h)
+            a0, a1 = self.segment_accelerations[:, 0], self.segment_accelerations[:, 1]
+        pos, vel, acc = TK.quintic_states(
+            _c(self.times), _c(self.positions), _c(self.velocities), _c(a0), _c(a1), ts
+        )
         return TrajectorySample(ts, pos, vel, acc)
 
     def positions_at(self, t: float) -> NDArray[np.float64]:
@@ -235,3 +224,8 @@ def stationary(group: JointGroup, q: ArrayLike) -> JointTrajectory:
     qv = group.as_joint_vector(q)[None, :]
     z = np.zeros_like(qv)
     return JointTrajectory(list(group.joint_names), np.zeros(1), qv.copy(), z, z.copy(), group.name)
+
+
+def _c(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``a`` as a C-contiguous float array (the compiled kernels' one layout)."""
+    return np.ascontiguousarray(a, dtype=float)
