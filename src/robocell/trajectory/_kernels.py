@@ -117,6 +117,9 @@ def blended_points(starts, origin, d1, d2, radius, on_arc, s, order):  # type: i
     n, dof = s.shape[0], origin.shape[1]
     out = np.empty((n, dof))
     for i in range(n):
+        if math.isnan(s[i]):
+            out[i] = math.nan  # as numpy's clip would carry it
+            continue
         x = min(max(s[i], 0.0), starts[S])
         k = min(max(np.searchsorted(starts, x, side="right") - 1, 0), S - 1)
         local = x - starts[k]
