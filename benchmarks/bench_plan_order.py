@@ -64,7 +64,7 @@ def main() -> None:
     for set_name in args.sets.split(","):
         folder = mbm / args.robot / "problems" / f"{set_name}_{args.robot}"
         times: dict[str, list[float]] = {v: [] for v in VARIANTS}
-        for k, _, req in set_problems(mbm, model, args.robot, set_name, args.limit):
+        for k, loaded, req in set_problems(mbm, model, args.robot, set_name, args.limit):
             seed = args.seed + k
             request = MotionPlanRequest(
                 req.group, JointGoal(req.goal), start=req.start, planning_time=1.0, seed=seed,
@@ -76,8 +76,9 @@ def main() -> None:
                 req.group, JointGoal(nearby), start=req.start, planning_time=1.0, seed=seed,
                 time_parameterize=False,
             )  # fmt: skip
-            for variant in VARIANTS:
-                scene = load_scene(model, folder / f"scene{k:04d}.yaml")
+            for i, variant in enumerate(VARIANTS):
+                # each variant plans in a scene of its own, loaded anew (the first: set_problems')
+                scene = load_scene(model, folder / f"scene{k:04d}.yaml") if i else loaded
                 checker = scene.checker(model.group(req.group))
                 warm_up(checker)
                 checker.check_exact_one(req.start)

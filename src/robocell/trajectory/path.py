@@ -113,6 +113,7 @@ class BlendedPath(_ArcLengthPath):
                 data.append(arcs[k + 1])
                 lengths.append(float(r_[0] * al[0]))
         self._kinds = np.array(kinds)
+        self._on_arc = self._kinds == 1  # which pieces are arcs, for the compiled evaluation
         self._data = data
         self._pieces: tuple[NDArray[Any], ...] | None = None  # piece_arrays(), once made
         self._starts = np.concatenate([[0.0], np.cumsum(lengths)])
@@ -145,9 +146,9 @@ class BlendedPath(_ArcLengthPath):
         """The path's points (``order`` 0), unit tangents (1) or curvature vectors (2) at arc
         lengths ``path_positions`` (scalar or (N,)), clamped to [0, length]."""
         s = np.asarray(path_positions, dtype=float)
-        starts, origin, d1, d2, _, radius, kind = self.piece_arrays()
+        starts, origin, d1, d2, _, radius, _ = self.piece_arrays()
         out = TK.blended_points(
-            starts, origin, d1, d2, radius, kind == ARC, np.ascontiguousarray(s.ravel()), order
+            starts, origin, d1, d2, radius, self._on_arc, np.ascontiguousarray(s.ravel()), order
         )
         return out[0] if s.ndim == 0 else out  # type: ignore[no-any-return]
 
