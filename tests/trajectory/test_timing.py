@@ -45,6 +45,21 @@ def test_time_optimal_is_tight(arm, path):
     assert np.mean(at_limit > 0.95) > 0.8
 
 
+def test_default_grid_is_as_fast_as_a_converged_one(arm):
+    """The default grid times a rounded path as a grid 16 times finer does: the gridpoint just
+    before each arc lets the line brake into it (without it the motion all but stopped at
+    the start of some arcs: 40 pick motions up to 6.6 % slower, 1.7 % in the mean)."""
+    rng = np.random.default_rng(0)
+    worst = 0.0
+    for _ in range(12):
+        a = arm.random(rng) * 0.6
+        p = np.clip([a, a + rng.normal(0, 0.4, 6), a + rng.normal(0, 0.8, 6)], arm.lower, arm.upper)
+        coarse = time_optimal(arm, p).duration
+        fine = time_optimal(arm, p, grid_step=0.0025).duration
+        worst = max(worst, coarse / fine - 1.0)
+    assert worst < 2e-3
+
+
 def test_repeated_calls_add_no_log_handlers(arm, path):
     """toppra's setup_logging added a handler per call (thousands in a sorting run, each
     warning printed once per handler); the limits' constraints are made once."""

@@ -132,10 +132,16 @@ class BlendedPath(_ArcLengthPath):
     def grid(self, step: float, arc_pieces: int = 12) -> NDArray[np.float64]:
         """Gridpoints for a time parameterization: every ``step`` [rad] on lines, and
         ``arc_pieces`` per arc (the acceleration a curve needs changes fast along it)."""
-        # a gridpoint just before each breakpoint too: the path is evaluated right-sided at a
-        # breakpoint, and the curvature of the stretch that ends there must be seen as well
-        arc_ends = self._starts[1:][self._kinds == 1]
-        pts = [self.breakpoints, np.maximum(arc_ends - 1e-6, 0.0)]
+        # a gridpoint just before each end of an arc too. Before its end: the path is
+        # evaluated right-sided at a breakpoint, and the arc's curvature must be seen there as
+        # well. Before its start: TOPP-RA holds an interval's one s̈ to the constraints at both
+        # its ends, so an interval of the line that ends on the arc must decelerate along the
+        # line within what the arc's curvature leaves at its start, and the motion all but
+        # stopped there (session 46: an IRB 120 pick motion 6.6 % slower than on a converged
+        # grid, 1.7 % in the mean of 40; 0.016 % with this point)
+        arc = self._kinds == 1
+        ends = np.concatenate([self._starts[:-1][arc], self._starts[1:][arc]])
+        pts = [self.breakpoints, np.maximum(ends - 1e-6, 0.0)]
         for k in range(len(self._kinds)):
             a, b = self._starts[k], self._starts[k + 1]
             n = arc_pieces if self._kinds[k] == 1 else max(4, int(math.ceil((b - a) / step)))
