@@ -24,6 +24,7 @@ from robocell.errors import (
     ModelError,
     PlanningError,
     RobocellError,
+    RobocellWarning,
     SceneError,
 )
 from robocell.geometry import Box, Cylinder, Mesh, Pose, Sphere
@@ -57,6 +58,7 @@ __all__ = [
     "PlanningScene",
     "Pose",
     "RobocellError",
+    "RobocellWarning",
     "RobotModel",
     "RobotState",
     "SceneError",

@@ -18,6 +18,11 @@ class RobocellError(Exception):
     """Root of every error robocell raises on purpose."""
 
 
+class RobocellWarning(UserWarning):
+    """Something robocell did in the user's place that they may want to do themselves (a
+    default where the robot's description gives no value)."""
+
+
 class GeometryError(RobocellError, ValueError):
     """A pose, rotation or shape is malformed (NaN, zero quaternion, non-positive size)."""
 

@@ -5,8 +5,9 @@ import logging
 import numpy as np
 import pytest
 
-from robocell.errors import PlanningError
+from robocell.errors import PlanningError, RobocellWarning
 from robocell.trajectory import BlendedPath, jerk_limited, ptp, time_optimal
+from robocell.trajectory.timing import DEFAULT_LIMITS
 
 
 @pytest.fixture
@@ -58,6 +59,30 @@ def test_default_grid_is_as_fast_as_a_converged_one(arm):
         fine = time_optimal(arm, p, grid_step=0.0025).duration
         worst = max(worst, coarse / fine - 1.0)
     assert worst < 2e-3
+
+
+def test_joints_without_limits_are_timed_with_moveits_defaults(mbm_panda):
+    """The MotionBenchMaker Panda's URDF gives no acceleration or jerk limits (and it has no
+    joint_limits.yaml): every profile keeps to MoveIt's defaults, reaches them, and says so."""
+    arm = mbm_panda.group("panda_arm")
+    assert not np.isfinite(arm.acceleration).any() and not np.isfinite(arm.jerk).any()
+    path = arm.random(np.random.default_rng(2), 3) * 0.5
+    a = DEFAULT_LIMITS["acceleration"]
+    with pytest.warns(RobocellWarning, match="no acceleration limits for panda_joint1, "):
+        timed = time_optimal(arm, path)
+    with pytest.warns(RobocellWarning, match="acceleration limits .* MoveIt's default, 1 rad/s²"):
+        move = ptp(arm, path[0], path[1])
+    with pytest.warns(RobocellWarning) as said:
+        smooth = jerk_limited(arm, path)
+    assert {str(w.message).split(" for ")[0] for w in said} == {
+        "no acceleration limits",
+        "no jerk limits",
+    }
+    assert "100 rad/s³" in str(said[-1].message)
+    for traj in (timed, move, smooth):
+        s = traj.sample(np.linspace(0.0, traj.duration, 3000))
+        assert 0.95 * a < np.max(np.abs(s.accelerations)) <= a * (1 + 1e-3)
+        assert traj.limit_violations(arm) == []  # the velocity limits the URDF gives
 
 
 def test_repeated_calls_add_no_log_handlers(arm, path):

@@ -12,18 +12,22 @@ from __future__ import annotations
 import functools
 import logging
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import PlanningError, floats
+from robocell.errors import PlanningError, RobocellWarning, floats
 from robocell.robot.model import JointGroup
 from robocell.trajectory.path import BlendedPath, SplinePath, SubPath
 from robocell.trajectory.trajectory import JointTrajectory, stationary
 
 KNOT_DT = 0.004  # [s] knot spacing of generated trajectories (250 Hz, a servo rate)
+# MoveIt's limits for a joint whose URDF and joint_limits.yaml give none: its time-optimal
+# parameterization's for velocity and acceleration, its ruckig smoothing's for jerk (rad or m)
+DEFAULT_LIMITS = {"velocity": 1.0, "acceleration": 1.0, "jerk": 100.0}
 
 # toppra's info messages quieted (its own setup_logging added a handler per call)
 logging.getLogger("toppra").setLevel(logging.WARNING)
@@ -40,7 +44,28 @@ def _limits(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     vs = _scaling(velocity_scaling, "velocity scaling factor")
     as_ = _scaling(acceleration_scaling, "acceleration scaling factor")
-    return group.velocity * vs, group.acceleration * as_
+    return _limit(group, "velocity") * vs, _limit(group, "acceleration") * as_
+
+
+def _limit(group: JointGroup, kind: str) -> NDArray[np.float64]:
+    """The group's ``kind`` limits ("velocity", "acceleration" or "jerk"), MoveIt's default
+    (DEFAULT_LIMITS) for the joints that have none, with a warning naming them. Without it a
+    profile had no bound but its grid's: a Panda without acceleration limits reached 364
+    rad/s² on TOPP-RA's default grid, 685 on a finer one, and a PTP move failed."""
+    limit: NDArray[np.float64] = getattr(group, kind)
+    missing = ~np.isfinite(limit)
+    if not missing.any():
+        return limit
+    names = [n for n, m in zip(group.joint_names, missing, strict=True) if m]
+    unit = {"velocity": "/s", "acceleration": "/s²", "jerk": "/s³"}[kind]
+    warnings.warn(
+        f"no {kind} limits for {', '.join(names)} of group {group.name!r}: timed with MoveIt's "
+        f"default, {DEFAULT_LIMITS[kind]:g} rad{unit} (m{unit} for a prismatic joint); give "
+        f"them in a joint_limits.yaml (RobotModel.from_urdf(..., joint_limits=...))",
+        RobocellWarning,
+        stacklevel=3,
+    )
+    return np.where(missing, DEFAULT_LIMITS[kind], limit)
 
 
 def fit_to_limits(
@@ -322,7 +347,7 @@ def _ruckig_ptp(
     inp.target_acceleration = [0.0] * n
     inp.max_velocity = v_max.tolist()
     inp.max_acceleration = a_max.tolist()
-    inp.max_jerk = group.jerk.tolist()
+    inp.max_jerk = _limit(group, "jerk").tolist()
     inp.synchronization = Synchronization.Phase
     out = Trajectory(n)
     result = otg.calculate(inp, out)
