@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from robocell.errors import PlanningError, RobocellWarning
+from robocell.execution.controller import stopping_trajectory
 from robocell.trajectory import BlendedPath, jerk_limited, ptp, time_optimal
-from robocell.trajectory.timing import DEFAULT_LIMITS
+from robocell.trajectory.timing import DEFAULT_LIMITS, joint_limits
 
 
 @pytest.fixture
@@ -79,10 +80,15 @@ def test_joints_without_limits_are_timed_with_moveits_defaults(mbm_panda):
         "no jerk limits",
     }
     assert "100 rad/s³" in str(said[-1].message)
-    for traj in (timed, move, smooth):
+    with pytest.warns(RobocellWarning, match="no acceleration limits"):
+        stop = stopping_trajectory(arm, path[0], np.full(arm.dof, 0.5))
+    for traj in (timed, move, smooth, stop):
         s = traj.sample(np.linspace(0.0, traj.duration, 3000))
         assert 0.95 * a < np.max(np.abs(s.accelerations)) <= a * (1 + 1e-3)
         assert traj.limit_violations(arm) == []  # the velocity limits the URDF gives
+    assert stop.duration == pytest.approx(0.5 / a)
+    with pytest.raises(PlanningError, match="unknown kind of joint limit 'accel'; known: "):
+        joint_limits(arm, "accel")
 
 
 def test_repeated_calls_add_no_log_handlers(arm, path):

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from robocell.errors import ExecutionError
 from robocell.robot.model import JointGroup
+from robocell.trajectory.timing import joint_limits
 from robocell.trajectory.trajectory import JointTrajectory
 
 
@@ -115,9 +116,10 @@ def stopping_trajectory(
     group: JointGroup, q: NDArray[np.float64], v: NDArray[np.float64], dt: float = 0.004
 ) -> JointTrajectory:
     """From (q, v) to rest along the current direction of motion, all joints stopping together,
-    each decelerating at most at its limit."""
+    each decelerating at most at its limit (MoveIt's default where the robot gives none, as
+    its motions were timed with: :func:`robocell.trajectory.timing.joint_limits`)."""
     speed = np.abs(v)
-    T = float(np.max(speed / group.acceleration))
+    T = float(np.max(speed / joint_limits(group, "acceleration")))
     if T < 1e-9:
         z = np.zeros((1, group.dof))
         return JointTrajectory(list(group.joint_names), np.zeros(1), q[None].copy(), z, z.copy())

@@ -8,6 +8,7 @@ import numpy as np
 
 from robocell.errors import PlanningError
 from robocell.robot.model import JointGroup
+from robocell.trajectory.timing import joint_limits
 from robocell.trajectory.trajectory import JointTrajectory
 
 
@@ -18,7 +19,8 @@ def plot_trajectory(
     dt: float = 0.002,
 ) -> Path:
     """Write a PNG of the trajectory's positions, velocities and accelerations (sampled every
-    ``dt`` [s]); with ``group``, its limits are drawn as dashed lines. Returns the file's path."""
+    ``dt`` [s]); with ``group``, the limits it was timed with are drawn as dashed lines
+    (:func:`robocell.trajectory.timing.joint_limits`). Returns the file's path."""
     if not isinstance(trajectory, JointTrajectory):
         raise PlanningError(
             f"plot_trajectory needs a JointTrajectory, got {type(trajectory).__name__}"
@@ -35,8 +37,16 @@ def plot_trajectory(
     fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
     rows = (
         ("position [rad]", s.positions, None),
-        ("velocity [rad/s]", s.velocities, None if group is None else group.velocity),
-        ("acceleration [rad/s²]", s.accelerations, None if group is None else group.acceleration),
+        (
+            "velocity [rad/s]",
+            s.velocities,
+            None if group is None else joint_limits(group, "velocity"),
+        ),
+        (
+            "acceleration [rad/s²]",
+            s.accelerations,
+            None if group is None else joint_limits(group, "acceleration"),
+        ),
     )
     for ax, (label, values, limit) in zip(axes, rows, strict=True):
         for j, name in enumerate(trajectory.joint_names):

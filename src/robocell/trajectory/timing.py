@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import PlanningError, RobocellWarning, floats
+from robocell.errors import PlanningError, RobocellWarning, floats, unknown
 from robocell.robot.model import JointGroup
 from robocell.trajectory.path import BlendedPath, SplinePath, SubPath
 from robocell.trajectory.trajectory import JointTrajectory, stationary
@@ -44,14 +44,17 @@ def _limits(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     vs = _scaling(velocity_scaling, "velocity scaling factor")
     as_ = _scaling(acceleration_scaling, "acceleration scaling factor")
-    return _limit(group, "velocity") * vs, _limit(group, "acceleration") * as_
+    return joint_limits(group, "velocity") * vs, joint_limits(group, "acceleration") * as_
 
 
-def _limit(group: JointGroup, kind: str) -> NDArray[np.float64]:
-    """The group's ``kind`` limits ("velocity", "acceleration" or "jerk"), MoveIt's default
-    (DEFAULT_LIMITS) for the joints that have none, with a warning naming them. Without it a
+def joint_limits(group: JointGroup, kind: str) -> NDArray[np.float64]:
+    """The limits every profile of the group keeps to, for ``kind`` "velocity",
+    "acceleration" or "jerk": the group's, and MoveIt's default (DEFAULT_LIMITS) for the
+    joints that have none, with a :class:`RobocellWarning` naming them. Without a default a
     profile had no bound but its grid's: a Panda without acceleration limits reached 364
     rad/s² on TOPP-RA's default grid, 685 on a finer one, and a PTP move failed."""
+    if kind not in DEFAULT_LIMITS:
+        raise PlanningError(unknown("kind of joint limit", kind, DEFAULT_LIMITS))
     limit: NDArray[np.float64] = getattr(group, kind)
     missing = ~np.isfinite(limit)
     if not missing.any():
@@ -347,7 +350,7 @@ def _ruckig_ptp(
     inp.target_acceleration = [0.0] * n
     inp.max_velocity = v_max.tolist()
     inp.max_acceleration = a_max.tolist()
-    inp.max_jerk = _limit(group, "jerk").tolist()
+    inp.max_jerk = joint_limits(group, "jerk").tolist()
     inp.synchronization = Synchronization.Phase
     out = Trajectory(n)
     result = otg.calculate(inp, out)
