@@ -9,7 +9,7 @@ import pytest
 
 from robocell import Pose
 from robocell.cell import Cell
-from robocell.errors import CellError, ExecutionError, SimulationError
+from robocell.errors import CellError, ExecutionError, ModelError, SimulationError
 from robocell.execution import ExecutionStatus
 from robocell.kinematics import fk
 from robocell.planning import PlannerConfig
@@ -168,6 +168,17 @@ def test_kinematic_mode(tmp_path):
         cell.target_position("pink_target")
     assert np.allclose(cell.target_position("red_target"), [-0.4, 0.15, 0.2])
     assert np.allclose(cell.target_position("red_target", frame="world"), [-0.4, 0.15, 1.1])
+    # names of the wrong kind: the same errors, not a TypeError or a ValueError from inside
+    with pytest.raises(CellError, match="unknown fixture \\['tray'\\]"):
+        cell.fixture_bounds(["tray"])
+    with pytest.raises(CellError, match="unknown fixture array"):
+        cell.inside("red_box", np.zeros(2))
+    with pytest.raises(CellError, match="unknown object array"):
+        cell.is_grasped(np.zeros(2))
+    with pytest.raises(CellError, match="unknown object array"):
+        cell.respawn(np.zeros(2))
+    with pytest.raises(ModelError, match="unknown group \\['arm'\\]"):
+        cell.controller(["arm"])
 
 
 def test_a_cells_move_groups_plan_with_its_planner_settings(monkeypatch):

@@ -69,6 +69,9 @@ def test_add_move_remove(scene):
         (lambda s: s.remove_object(["can"]), SceneError, "unknown object"),
         (lambda s: s.allow_collision(["can"], "table"), SceneError, "unknown link or object"),
         (lambda s: s.checker("arm").check("abc"), ModelError, "must be numbers"),
+        (lambda s: s.allow_collision("can", 0.5), SceneError, "unknown link or object 0.5"),
+        (lambda s: s.without_padding(None), SceneError, "unknown object None"),
+        (lambda s: s.add_mesh("m", Pose(), None), GeometryError, "path must be a str or a Path"),
         (
             lambda s: s.add_object(CollisionObject("bad id!", (Box((1, 1, 1)),), (Pose(),))),
             SceneError,

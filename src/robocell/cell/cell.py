@@ -176,8 +176,9 @@ class Cell:
         """World-aligned boxes (2×3: min, max corners) around each part of a fixture [m]."""
         from robocell.geometry.shapes import triangulate
 
-        if name not in self._boxes:
-            f = next((f for f in self.spec.fixtures if f.name == name), None)
+        if not isinstance(name, str) or name not in self._boxes:
+            fixtures = self.spec.fixtures if isinstance(name, str) else []
+            f = next((f for f in fixtures if f.name == name), None)
             if f is None:
                 known = choices(x.name for x in self.spec.fixtures)
                 raise CellError(f"unknown fixture {name!r}; known: {known}")
@@ -290,7 +291,7 @@ class Cell:
 
     def respawn(self, name: str) -> None:
         """Put one object back where the layout has it, at rest (world and scene)."""
-        if name not in self.object_names:
+        if not isinstance(name, str) or name not in self.object_names:
             raise CellError(f"unknown object {name!r}; known: {choices(self.object_names)}")
         if name in self.scene.attached_objects:
             self.scene.detach_object(name)
@@ -338,7 +339,7 @@ class Cell:
     def is_grasped(self, name: str) -> bool:
         """Whether the object is squeezed by the gripper: two or more of the gripper's links
         touch it (physics), or it is attached to the robot (kinematic mode)."""
-        if name not in self.object_names:
+        if not isinstance(name, str) or name not in self.object_names:
             raise CellError(f"unknown object {name!r}; known: {choices(self.object_names)}")
         if self.world is None:
             return name in self.scene.attached_objects
@@ -364,7 +365,7 @@ class Cell:
     # ------------------------------------------------------------------ motion
     def controller(self, group: str) -> Controller:
         """The controller of a group: physics or kinematic, by the cell's mode."""
-        if group not in self._controllers:
+        if not isinstance(group, str) or group not in self._controllers:
             g = self.robot.group(group)
             if self._stepper is not None:
                 from robocell.execution.physics import PhysicsController

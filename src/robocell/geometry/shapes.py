@@ -120,6 +120,8 @@ class Mesh:
         """Read an STL, OBJ or DAE file (anything assimp reads), scaled per axis."""
         import coal
 
+        if not isinstance(path, (str, Path)):
+            raise GeometryError(f"a mesh file's path must be a str or a Path, got {path!r}")
         p = Path(path)
         if not p.is_file():
             raise GeometryError(f"mesh file not found: {str(p)!r}")

@@ -139,7 +139,7 @@ class PlanningScene:
         scene, its allowed collisions and its state stay as they are; this scene itself if
         none of them is padded. (The sorting demo's place candidates asked for such a copy
         41 times per object, each building a checker of its own: 1.3 s per layout.)"""
-        ids = [*ids]
+        ids = [ids] if isinstance(ids, str) or not isinstance(ids, Iterable) else [*ids]
         for id in ids:
             if not isinstance(id, str) or (id not in self._world and id not in self._attached):
                 raise SceneError(unknown("object", id, [*self._world, *self._attached]))
@@ -265,7 +265,7 @@ class PlanningScene:
     def allow_collision(self, a: str, b: str | Iterable[str], allowed: bool = True) -> None:
         """Allow (or forbid) contact between two names: links, object ids."""
         known = set(self.robot.link_names) | set(self._world) | set(self._attached)
-        for name in [a, *([b] if isinstance(b, str) else list(b))]:
+        for name in [a, *([b] if isinstance(b, str) or not isinstance(b, Iterable) else b)]:
             if not isinstance(name, str) or name not in known:
                 raise SceneError(unknown("link or object", name, known))
         self.acm.set_entry(a, b, allowed)
