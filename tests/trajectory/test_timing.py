@@ -1,14 +1,14 @@
 """Time parameterization: limits hold at every sample, rest to rest, the path is kept."""
 
-import logging
-
 import numpy as np
 import pytest
 
 from robocell.errors import PlanningError, RobocellWarning
 from robocell.execution.controller import stopping_trajectory
 from robocell.trajectory import BlendedPath, jerk_limited, ptp, time_optimal
-from robocell.trajectory.timing import DEFAULT_LIMITS, joint_limits
+from robocell.trajectory import _kernels as TK
+from robocell.trajectory.path import SplinePath, SubPath
+from robocell.trajectory.timing import DEFAULT_LIMITS, _limits, joint_limits
 
 
 @pytest.fixture
@@ -91,14 +91,53 @@ def test_joints_without_limits_are_timed_with_moveits_defaults(mbm_panda):
         joint_limits(arm, "accel")
 
 
-def test_repeated_calls_add_no_log_handlers(arm, path):
-    """toppra's setup_logging added a handler per call (thousands in a sorting run, each
-    warning printed once per handler); the limits' constraints are made once."""
-    time_optimal(arm, path)
-    before = len(logging.getLogger("toppra").handlers)
-    for k in range(3):
-        time_optimal(arm, path * (1.0 - 0.1 * k), velocity_scaling=1.0 - 0.2 * k)
-    assert len(logging.getLogger("toppra").handlers) == before
+@pytest.mark.parametrize("robot", ["irb120", "ur5e"])
+def test_compiled_topp_ra_gives_toppras_profiles(robot, request):
+    """The compiled TOPP-RA (trajectory._kernels.topp_ra) against toppra itself, with the
+    same constraints (joint velocity, joint acceleration in its interpolation scheme), on the
+    same grids: 3–6 waypoint paths with corners rounded or stopped at, splines, full and
+    scaled limits. toppra bounds the path speed in float32: profiles agree to about 1e-7."""
+    import toppra
+    import toppra.constraint as tc
+
+    model = request.getfixturevalue(robot)
+    group = model.group("arm" if "arm" in model.groups else "manipulator")
+    rng = np.random.default_rng(7)
+    pieces = 0
+    for trial in range(24):
+        scale = (1.0, 0.3)[trial % 2]
+        v_max, a_max = _limits(group, scale, scale)
+        a = group.random(rng) * 0.6
+        if trial % 4 == 3:
+            t = np.linspace(0.0, 1.0, 25)[:, None]
+            bp = SplinePath(a + np.sin(3.0 * t) * rng.normal(0.0, 0.3, group.dof))
+        else:
+            steps = rng.normal(0.0, 0.5, (rng.integers(2, 6), group.dof))
+            wp = np.clip(a + np.cumsum(steps, axis=0), group.lower, group.upper)
+            bp = BlendedPath(np.vstack([a, wp]), (0.0, 0.05, 0.2)[trial % 3])
+        for s0, s1 in bp.split_at_stops():
+            grid = bp.grid(0.04)
+            grid = np.union1d(grid[(grid > s0) & (grid < s1)], [s0, s1])
+            g = grid - grid[0]
+            s = np.clip(g, 0.0, g[-1]) + grid[0]
+            xs, status, _ = TK.topp_ra(bp(s, 1), bp(s, 2), np.diff(g), v_max, a_max)
+            reference = toppra.algorithm.TOPPRA(
+                [
+                    tc.JointVelocityConstraint(v_max),
+                    tc.JointAccelerationConstraint(
+                        a_max, discretization_scheme=tc.DiscretizationType.Interpolation
+                    ),
+                ],
+                SubPath(bp, grid[0], grid[-1]),
+                gridpoints=g,
+                solver_wrapper="seidel",
+                parametrizer="ParametrizeConstAccel",
+            ).compute_trajectory(0.0, 0.0)
+            assert status == TK.TOPP_OK and reference is not None
+            sd, sd_ref = np.sqrt(xs), np.asarray(reference._velocities)
+            assert np.max(np.abs(sd - sd_ref)) < 1e-6 * sd_ref.max()
+            pieces += 1
+    assert pieces > 24
 
 
 def test_rounded_corners_are_faster_than_stops(arm, path):

@@ -276,7 +276,8 @@ def arc_states(
 
 
 class SubPath(AbstractGeometricPath):  # type: ignore[misc]
-    """The stretch [s0, s1] of a path, re-parameterized to start at 0."""
+    """The stretch [s0, s1] of a path, re-parameterized to start at 0: a toppra geometric path
+    (robocell's paths are ones), for toppra's own algorithms and constraints."""
 
     def __init__(self, path: BlendedPath | SplinePath, s0: float, s1: float) -> None:
         self.path, self.s0, self.s1 = path, s0, s1

@@ -1,4 +1,4 @@
-"""Time parameterization: time-optimal along a path (TOPP-RA), synchronized point-to-point
+"""Time parameterization: time-optimal along a path (TOPP-RA, compiled), synchronized point-to-point
 (trapezoidal, as Pilz's PTP; or jerk-limited through ruckig).
 
 Every function returns a :class:`JointTrajectory` that starts and ends at rest and whose
@@ -9,28 +9,23 @@ uniformly until it is within; it is never returned over a limit.
 
 from __future__ import annotations
 
-import functools
-import logging
 import math
 import warnings
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robocell.errors import PlanningError, RobocellWarning, floats, unknown
 from robocell.robot.model import JointGroup
-from robocell.trajectory.path import BlendedPath, SplinePath, SubPath
+from robocell.trajectory import _kernels as TK
+from robocell.trajectory.path import BlendedPath, SplinePath
 from robocell.trajectory.trajectory import JointTrajectory, stationary
 
 KNOT_DT = 0.004  # [s] knot spacing of generated trajectories (250 Hz, a servo rate)
 # MoveIt's limits for a joint whose URDF and joint_limits.yaml give none: its time-optimal
 # parameterization's for velocity and acceleration, its ruckig smoothing's for jerk (rad or m)
 DEFAULT_LIMITS = {"velocity": 1.0, "acceleration": 1.0, "jerk": 100.0}
-
-# toppra's info messages quieted (its own setup_logging added a handler per call)
-logging.getLogger("toppra").setLevel(logging.WARNING)
 
 
 def _scaling(value: float, name: str) -> float:
@@ -128,7 +123,7 @@ def time_optimal(
     for s0, s1 in bp.split_at_stops():
         grid = bp.grid(grid_step)
         grid = np.union1d(grid[(grid > s0) & (grid < s1)], [s0, s1])
-        pieces.append(_toppra_piece(group, bp, grid, v_max, a_max, dt))
+        pieces.append(_topp_piece(group, bp, grid, v_max, a_max, dt))
     traj = pieces[0]
     for p in pieces[1:]:
         traj = traj.then(p)
@@ -137,7 +132,7 @@ def time_optimal(
     return traj
 
 
-def _toppra_piece(
+def _topp_piece(
     group: JointGroup,
     bp: BlendedPath | SplinePath,
     grid: NDArray[np.float64],
@@ -145,31 +140,31 @@ def _toppra_piece(
     a_max: NDArray[np.float64],
     dt: float,
 ) -> JointTrajectory:
-    """TOPP-RA from rest to rest over the smooth stretch ``grid`` of ``bp``."""
-    instance = _toppra().TOPPRA(
-        _constraints(v_max.tobytes(), a_max.tobytes()),
-        SubPath(bp, grid[0], grid[-1]),
-        gridpoints=grid - grid[0],
-        parametrizer="ParametrizeConstAccel",
-    )
-    timed = instance.compute_trajectory(0.0, 0.0)
-    if timed is None:
+    """TOPP-RA from rest to rest over the smooth stretch ``grid`` of ``bp``
+    (:func:`robocell.trajectory._kernels.topp_ra`)."""
+    # the path's derivatives at the grid's points, measured from the stretch's start as
+    # toppra took them through SubPath (the same side of a corner's breakpoint, to the bit)
+    g = grid - grid[0]
+    s = np.clip(g, 0.0, g[-1]) + grid[0]
+    xs, status, stage = TK.topp_ra(bp(s, 1), bp(s, 2), np.diff(g), v_max, a_max)
+    if status != TK.TOPP_OK:
         raise PlanningError(
             f"time parameterization failed for group {group.name!r} on the path stretch "
-            f"[{grid[0]:.3f}, {grid[-1]:.3f}] rad"
+            f"[{grid[0]:.3f}, {grid[-1]:.3f}] rad (at {grid[stage]:.3f} rad)"
         )
-    if not np.isfinite(timed.duration):
+    g_sd = np.sqrt(xs)
+    with np.errstate(divide="ignore"):  # two gridpoints at rest: a stall, said below
+        g_t = np.concatenate([[0.0], np.cumsum(2.0 * np.diff(g) / (g_sd[:-1] + g_sd[1:]))])
+    if not np.isfinite(g_t[-1]):
         raise PlanningError(
             f"time parameterization of group {group.name!r} stalls on the path stretch "
             f"[{grid[0]:.3f}, {grid[-1]:.3f}] rad (a corner too sharp to pass)"
         )
+    g_s = grid
+    g_u = 0.5 * np.diff(xs) / np.diff(g)  # s̈, constant on each grid interval
     # Knots from the exact profile: s̈ is constant on each grid interval, so each interval
     # is cut into knot intervals ≤ dt and the accelerations at both ends of each are taken
     # from inside it (the joint accelerations jump where s̈ or the path's curvature does).
-    g_s = np.asarray(timed._ss) + grid[0]
-    g_sd = np.asarray(timed._velocities)
-    g_t = np.asarray(timed._ts)
-    g_u = np.asarray(timed._us)
     h = np.diff(g_t)
     # a grid interval this short (the point set just before a breakpoint) gets no knot of
     # its own: a quintic over microseconds only amplifies rounding errors
@@ -205,34 +200,6 @@ def _toppra_piece(
         segment_accelerations=np.stack([acc_start, acc_end], axis=1),
     )
     return traj
-
-
-@functools.cache
-def _toppra() -> Any:
-    """toppra's algorithms, with its look for its optional solvers made once per process:
-    each TOPPRA instance asks importlib whether qpOASES and cvxpy are installed (0.34 ms of an
-    8.6 ms time parameterization of an IRB 120 pick motion, measured in session 45), and the
-    answer does not change while the process runs."""
-    import toppra.algorithm as algo
-    import toppra.solverwrapper as solvers
-
-    solvers.available_solvers = functools.cache(solvers.available_solvers)
-    return algo
-
-
-@functools.lru_cache(maxsize=32)
-def _constraints(v_max: bytes, a_max: bytes) -> list[Any]:
-    """TOPP-RA's joint velocity and acceleration constraints for these limits (float64
-    bytes), made once: they do not depend on the path, and making one formats its limits
-    into a description (0.6 ms of a 4.8 ms time parameterization, measured)."""
-    import toppra.constraint as constraint
-
-    return [
-        constraint.JointVelocityConstraint(np.frombuffer(v_max)),
-        constraint.JointAccelerationConstraint(
-            np.frombuffer(a_max), discretization_scheme=constraint.DiscretizationType.Interpolation
-        ),
-    ]
 
 
 def _trapezoid(distance: float, v: float, a: float) -> tuple[float, float, float]:
