@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 from robocell.errors import PlanningError, number, vector
 from robocell.geometry.pose import Pose
@@ -43,16 +43,27 @@ class CartesianPath:
 def _poses_between(
     T_a: NDArray[np.float64], T_b: NDArray[np.float64], eef_step: float, rotation_step: float
 ) -> NDArray[np.float64]:
-    """Poses (n, 4, 4) from T_a (excluded) to T_b (included): steps no longer than eef_step [m]
-    and rotation_step [rad]."""
-    dist = float(np.linalg.norm(T_b[:3, 3] - T_a[:3, 3]))
-    R = Rotation.from_matrix(np.stack([T_a[:3, :3], T_b[:3, :3]]))
-    angle = float((R[0].inv() * R[1]).magnitude())
-    n = max(1, int(math.ceil(dist / eef_step)), int(math.ceil(angle / rotation_step)))
-    s = np.arange(1, n + 1) / n
-    out = np.tile(np.eye(4), (n, 1, 1))
-    out[:, :3, 3] = T_a[:3, 3] + s[:, None] * (T_b[:3, 3] - T_a[:3, 3])
-    out[:, :3, :3] = Slerp([0.0, 1.0], R)(s).as_matrix()
+    """Poses (n, 4, 4) along the straight moves from each pose T_a[k] (excluded) to T_b[k]
+    (included) (M, 4, 4, or one 4×4 each), one move after the other, in steps no longer than
+    eef_step [m] and rotation_step [rad]: the position linear, the orientation slerped
+    (T_a's rotation turned by a share of the one turn to T_b's, as scipy's Slerp). All moves
+    at once, in two scipy calls: a Slerp per move cost 0.3 ms, and a LIN sequence's dense
+    waypoints made hundreds of them (190–230 ms for the IRB 120's standard cycle)."""
+    T_a, T_b = np.reshape(T_a, (-1, 4, 4)), np.reshape(T_b, (-1, 4, 4))
+    d = T_b[:, :3, 3] - T_a[:, :3, 3]
+    turn = Rotation.from_matrix(T_a[:, :3, :3].transpose(0, 2, 1) @ T_b[:, :3, :3]).as_rotvec()
+    n = np.maximum(
+        1,
+        np.maximum(
+            np.ceil(np.linalg.norm(d, axis=1) / eef_step),
+            np.ceil(np.linalg.norm(turn, axis=1) / rotation_step),
+        ),
+    ).astype(np.int64)
+    k = np.repeat(np.arange(len(n)), n)  # each step's move
+    s = (np.arange(len(k)) - np.repeat(np.cumsum(n) - n, n) + 1) / n[k]
+    out = np.tile(np.eye(4), (len(k), 1, 1))
+    out[:, :3, 3] = T_a[k, :3, 3] + s[:, None] * d[k]
+    out[:, :3, :3] = T_a[k, :3, :3] @ Rotation.from_rotvec(s[:, None] * turn[k]).as_matrix()
     return out
 
 
@@ -113,17 +124,10 @@ def compute_cartesian_path(
     T_base_world = np.linalg.inv(T_world_base)
     T_start = fk(g, q0, tip, relative_to=g.base_link)
 
-    # every step pose, in the base frame, and where each segment ends
-    poses = [T_start[None]]
-    seg_len = []
-    prev = T_start
-    for T_w in targets:
-        T_b = T_base_world @ T_w
-        steps = _poses_between(prev, T_b, eef_step, rotation_step)
-        poses.append(steps)
-        seg_len.append(float(np.linalg.norm(T_b[:3, 3] - prev[:3, 3])) + 1e-9)
-        prev = T_b
-    P = np.concatenate(poses)  # (n+1, 4, 4), P[0] = start
+    # every step pose, in the base frame
+    T_to = T_base_world @ np.array(targets)
+    T_from = np.concatenate([T_start[None], T_to[:-1]])
+    P = np.concatenate([T_start[None], _poses_between(T_from, T_to, eef_step, rotation_step)])
     n = len(P) - 1
     # Cartesian arc length at each step, for the fraction
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P[:, :3, 3], axis=0), axis=1))])
@@ -443,13 +447,12 @@ def _rounded_poses(
     # orientation by the fraction of the straight polyline covered (arc ≈ polyline)
     cum = np.concatenate([[0.0], np.cumsum(seg)])
     frac = s / bp.length * cum[-1]
-    rots = Rotation.from_matrix(np.array([T[:3, :3] for T in poses]))
-    out = []
-    for x, f in zip(pts, frac, strict=True):
-        k = int(min(np.searchsorted(cum, f, side="right") - 1, len(seg) - 1))
-        t = (f - cum[k]) / seg[k] if seg[k] > 1e-12 else 1.0
-        R = Slerp([0.0, 1.0], rots[[k, k + 1]])(min(max(t, 0.0), 1.0)).as_matrix()
-        T = np.eye(4)
-        T[:3, :3], T[:3, 3] = R, x
-        out.append(Pose.from_matrix(T))
-    return out
+    R = np.array([T[:3, :3] for T in poses])
+    turn = Rotation.from_matrix(R[:-1].transpose(0, 2, 1) @ R[1:]).as_rotvec()  # (moves, 3)
+    k = np.minimum(np.searchsorted(cum, frac, side="right") - 1, len(seg) - 1)
+    long = seg[k] > 1e-12
+    t = np.where(long, (frac - cum[k]) / np.where(long, seg[k], 1.0), 1.0).clip(0.0, 1.0)
+    T = np.tile(np.eye(4), (len(s), 1, 1))
+    T[:, :3, :3] = R[k] @ Rotation.from_rotvec(t[:, None] * turn[k]).as_matrix()
+    T[:, :3, 3] = pts
+    return [Pose.from_matrix(x) for x in T]
