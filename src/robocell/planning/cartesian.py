@@ -125,7 +125,7 @@ def compute_cartesian_path(
     T_start = fk(g, q0, tip, relative_to=g.base_link)
 
     # every step pose, in the base frame
-    T_to = T_base_world @ np.array(targets)
+    T_to = np.asarray(T_base_world @ np.array(targets), dtype=np.float64)
     T_from = np.concatenate([T_start[None], T_to[:-1]])
     P = np.concatenate([T_start[None], _poses_between(T_from, T_to, eef_step, rotation_step)])
     n = len(P) - 1

@@ -8,12 +8,12 @@ corner the speed must drop to zero, at a rounded one it need not.
 
 from __future__ import annotations
 
+import abc
 import math
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from toppra.interpolator import AbstractGeometricPath
 
 from robocell.errors import PlanningError
 from robocell.scene.swept import ARC, CUBIC, SEGMENT
@@ -27,15 +27,22 @@ def distinct_waypoints(waypoints: NDArray[np.float64]) -> NDArray[np.int64]:
     return np.flatnonzero(np.concatenate([[True], step > 1e-9]))
 
 
-class _ArcLengthPath(AbstractGeometricPath):  # type: ignore[misc]
+class _ArcLengthPath(abc.ABC):
     """What the joint paths share: parameterized by arc length ``s`` ∈ [0, length], stopping
     (if at all) at ``stops``; ``breakpoints`` are where a time parameterization needs grid
-    points."""
+    points. A path is called as toppra's geometric paths are (``path(s, order)``, ``dof``,
+    ``path_interval``), without deriving from its class: importing toppra took a second
+    (it imports matplotlib's pyplot), half of ``import robocell``'s time (session 47)."""
 
     _dof: int
     _length: float
     breakpoints: NDArray[np.float64]
     stops: list[float]
+
+    @abc.abstractmethod
+    def __call__(self, path_positions: ArrayLike, order: int = 0) -> NDArray[np.float64]:
+        """The path's points (``order`` 0), first (1) or second (2) derivatives by arc length
+        at ``path_positions`` (scalar or (N,)), clamped to [0, length]."""
 
     @staticmethod
     def _clean(waypoints: ArrayLike) -> NDArray[np.float64]:
@@ -275,9 +282,9 @@ def arc_states(
     )
 
 
-class SubPath(AbstractGeometricPath):  # type: ignore[misc]
-    """The stretch [s0, s1] of a path, re-parameterized to start at 0: a toppra geometric path
-    (robocell's paths are ones), for toppra's own algorithms and constraints."""
+class SubPath:
+    """The stretch [s0, s1] of a path, re-parameterized to start at 0, as a geometric path for
+    toppra's own algorithms and constraints (duck-typed as its AbstractGeometricPath)."""
 
     def __init__(self, path: BlendedPath | SplinePath, s0: float, s1: float) -> None:
         self.path, self.s0, self.s1 = path, s0, s1
