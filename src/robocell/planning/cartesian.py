@@ -261,15 +261,13 @@ def _densify(
     qs: NDArray[np.float64], resolution: float
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """States along the polyline qs at most ``resolution`` apart per joint, and for each the
-    index of the step it ends at."""
-    out = [qs[:1]]
-    owner = [np.zeros(1, np.int64)]
-    for k in range(1, len(qs)):
-        m = max(1, int(math.ceil(float(np.max(np.abs(qs[k] - qs[k - 1]))) / resolution)))
-        t = np.arange(1, m + 1)[:, None] / m
-        out.append(qs[k - 1] + t * (qs[k] - qs[k - 1]))
-        owner.append(np.full(m, k, np.int64))
-    return np.concatenate(out), np.concatenate(owner)
+    index of the step it ends at (all steps at once)."""
+    d = np.diff(qs, axis=0)
+    m = np.maximum(1, np.ceil(np.abs(d).max(axis=1, initial=0.0) / resolution)).astype(np.int64)
+    k = np.repeat(np.arange(len(d)), m)  # each state's step − 1
+    t = (np.arange(len(k)) - np.repeat(np.cumsum(m) - m, m) + 1) / m[k]
+    dense = np.concatenate([qs[:1], qs[k] + t[:, None] * d[k]])
+    return dense, np.concatenate([[0], k + 1])
 
 
 def _link_in_root(
