@@ -670,6 +670,50 @@ def test_world_grid_bounds_the_distance_to_every_obstacle(scene, irb120):
     assert clear.sum() > 0.8 * (true > radii + 2 * frame[3]).sum()  # it clears most of those
 
 
+def test_world_grid_patched_from_another_world_is_the_same_to_the_bit(scene, irb120, monkeypatch):
+    """A world that differs from a cached one by a few objects (one picked, placed or
+    moved, or two moved) gets its grid patched from the cached one's: the same values, to
+    the bit, as computed anew."""
+    from robocell.scene import _kernels as K
+    from robocell.scene import checker as C
+
+    patches = []
+    patched_grid = C._patched_grid
+    monkeypatch.setattr(
+        C, "_patched_grid", lambda *a: patches.append(patched_grid(*a)) or patches[-1]
+    )
+    scene.add_box("wall", Pose((0.0, 0.7, 0.4)), (1.6, 0.05, 0.8))  # keeps the grid's frame
+    scene.add_box("floor", Pose((0.0, 0.0, -0.05)), (1.6, 1.6, 0.1))
+    rng = np.random.default_rng(3)
+
+    def somewhere(tilt: float) -> Pose:
+        xy, z = rng.uniform(-0.4, 0.4, 2), rng.uniform(0.05, 0.5)
+        return Pose.from_rpy(*xy, z, *rng.uniform(-tilt, tilt, 3))
+
+    for k in range(6):
+        scene.add_box(f"box{k}", somewhere(1.0), rng.uniform(0.02, 0.1, 3))
+    arm = irb120.group("arm")
+    for step in range(12):
+        C._WORLD_GRIDS.clear()
+        C._WORLD_OBSTACLES.clear()
+        before = scene.checker(arm)
+        C.world_grid(before._obs_kind, before._obs_T, before._obs_dims, 0.3)
+        moved = [f"box{k}" for k in rng.choice(6, size=1 + step % 2, replace=False)]
+        if step % 3 == 2:
+            scene.remove_object(moved[0])  # picked
+        else:
+            for name in moved:
+                scene.move_object(name, somewhere(0.5))
+        after = scene.checker(arm)
+        kind, T, dims = after._obs_kind, after._obs_T, after._obs_dims
+        frame, n, values = C.world_grid(kind, T, dims, 0.3)
+        anew = K.world_distance_grid(kind, T, dims, frame, n, 0.3)
+        assert patches[-1] is not None and patches[-1] is values
+        assert np.array_equal(values.view(np.uint32), anew.view(np.uint32))
+        if step % 3 == 2:
+            scene.add_box(moved[0], somewhere(0.5), (0.05, 0.05, 0.05))  # placed
+
+
 def _with_states_near_contact(checker, qs):
     """``qs`` and, for 30 of its free states and 30 of its colliding ones (coal's verdict),
     a pair within 0.1 mrad of contact: each bisected 14 times towards the other."""

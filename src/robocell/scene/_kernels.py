@@ -108,45 +108,95 @@ def _centre(n, b, TB, S, W, stamp, cur):  # type: ignore[no-untyped-def]
         stamp[-1] += 1
 
 
+@njit(cache=True, inline="always")
+def _obstacle_reach(o, obs_kind, obs_T, obs_dims, frame, dims, cap):  # type: ignore[no-untyped-def]
+    """The index ranges (i0, i1, j0, j1, k0, k1, inclusive) of the grid points within ``cap``
+    of obstacle o's bounding box: the only points it can bring nearer than cap."""
+    T, d = obs_T[o], obs_dims[o]
+    ox, oy, oz, h = frame[0], frame[1], frame[2], frame[3]
+    e = np.empty(3)
+    for i in range(3):  # the half extents of the obstacle's box in the grid's axes
+        if obs_kind[o] == OBS_BOX:
+            e[i] = abs(T[i, 0]) * d[0] + abs(T[i, 1]) * d[1] + abs(T[i, 2]) * d[2]
+        elif obs_kind[o] == OBS_CYLINDER:
+            e[i] = abs(T[i, 2]) * d[1] + d[0] * math.sqrt(max(0.0, 1.0 - T[i, 2] ** 2))
+        else:
+            e[i] = d[0]
+    return (
+        max(0, int(math.floor((T[0, 3] - e[0] - cap - ox) / h))),
+        min(dims[0] - 1, int(math.ceil((T[0, 3] + e[0] + cap - ox) / h))),
+        max(0, int(math.floor((T[1, 3] - e[1] - cap - oy) / h))),
+        min(dims[1] - 1, int(math.ceil((T[1, 3] + e[1] + cap - oy) / h))),
+        max(0, int(math.floor((T[2, 3] - e[2] - cap - oz) / h))),
+        min(dims[2] - 1, int(math.ceil((T[2, 3] + e[2] + cap - oz) / h))),
+    )
+
+
+@njit(cache=True, inline="always")
+def _lowered(v):  # type: ignore[no-untyped-def]
+    """A distance as the grid keeps it: lowered a little, so that float32 keeps it a lower
+    bound. Monotone: the grid's value of a minimum is the minimum of the values."""
+    return np.float32(max(0.0, v * (1.0 - 1e-6) - 1e-6))
+
+
 @njit(cache=True)
 def world_distance_grid(obs_kind, obs_T, obs_dims, frame, dims, cap):  # type: ignore[no-untyped-def]
     """The values of the world's distance grid (see :func:`_world_clear`): at each grid point
     (flat, x slowest), the distance to the nearest obstacle, or ``cap`` where every obstacle is
-    farther (or at least as far) than that, lowered a little so that float32 keeps them lower
-    bounds. ``frame``: origin (3), spacing, and the obstacles' bounding box (lo 3, hi 3)."""
-    nx, ny, nz = dims[0], dims[1], dims[2]
-    ox, oy, oz, h = frame[0], frame[1], frame[2], frame[3]
-    out = np.full(nx * ny * nz, cap)
-    ext = np.empty(3)
+    farther (or at least as far) than that (:func:`_lowered`). ``frame``: origin (3),
+    spacing, and the obstacles' bounding box (lo 3, hi 3)."""
+    values = np.full(dims[0] * dims[1] * dims[2], _lowered(cap))
     for o in range(obs_kind.shape[0]):
-        T, d = obs_T[o], obs_dims[o]
-        for i in range(3):  # the half extents of the obstacle's box in the grid's axes
-            if obs_kind[o] == OBS_BOX:
-                ext[i] = abs(T[i, 0]) * d[0] + abs(T[i, 1]) * d[1] + abs(T[i, 2]) * d[2]
-            elif obs_kind[o] == OBS_CYLINDER:
-                ext[i] = abs(T[i, 2]) * d[1] + d[0] * math.sqrt(max(0.0, 1.0 - T[i, 2] ** 2))
-            else:
-                ext[i] = d[0]
-        # only the grid points within ``cap`` of the obstacle's box can come nearer than cap
-        lo_i = max(0, int(math.floor((T[0, 3] - ext[0] - cap - ox) / h)))
-        hi_i = min(nx - 1, int(math.ceil((T[0, 3] + ext[0] + cap - ox) / h)))
-        lo_j = max(0, int(math.floor((T[1, 3] - ext[1] - cap - oy) / h)))
-        hi_j = min(ny - 1, int(math.ceil((T[1, 3] + ext[1] + cap - oy) / h)))
-        lo_k = max(0, int(math.floor((T[2, 3] - ext[2] - cap - oz) / h)))
-        hi_k = min(nz - 1, int(math.ceil((T[2, 3] + ext[2] + cap - oz) / h)))
-        for i in range(lo_i, hi_i + 1):
-            x = ox + i * h
-            for j in range(lo_j, hi_j + 1):
-                y = oy + j * h
-                row = (i * ny + j) * nz
-                for k in range(lo_k, hi_k + 1):
-                    v = _obstacle_distance(x, y, oz + k * h, obs_kind[o], T, d)
-                    if v < out[row + k]:
-                        out[row + k] = v
-    values = np.empty(out.shape[0], np.float32)
-    for n in range(out.shape[0]):
-        values[n] = max(0.0, out[n] * (1.0 - 1e-6) - 1e-6)
+        i0, i1, j0, j1, k0, k1 = _obstacle_reach(o, obs_kind, obs_T, obs_dims, frame, dims, cap)
+        _lower_into(values, o, obs_kind, obs_T, obs_dims, frame, dims, i0, i1, j0, j1, k0, k1)
     return values
+
+
+@njit(cache=True, inline="always")
+def _lower_into(values, o, obs_kind, obs_T, obs_dims, frame, dims, i0, i1, j0, j1, k0, k1):  # type: ignore[no-untyped-def]
+    """values = min(values, obstacle o's distance) over the index ranges given."""
+    ny, nz = dims[1], dims[2]
+    ox, oy, oz, h = frame[0], frame[1], frame[2], frame[3]
+    kind, T, d = obs_kind[o], obs_T[o], obs_dims[o]
+    for i in range(i0, i1 + 1):
+        x = ox + i * h
+        for j in range(j0, j1 + 1):
+            y = oy + j * h
+            row = (i * ny + j) * nz
+            for k in range(k0, k1 + 1):
+                v = _lowered(_obstacle_distance(x, y, oz + k * h, kind, T, d))
+                if v < values[row + k]:
+                    values[row + k] = v
+
+
+@njit(cache=True)
+def world_distance_patch(values, obs_kind, obs_T, obs_dims, frame, dims, cap, gone, added):  # type: ignore[no-untyped-def]
+    """The grid ``values`` of another world with this frame, changed in place into this
+    world's (obs_*): the same values, to the bit, as :func:`world_distance_grid` would give.
+    ``gone`` (kind, T, dims of the obstacles the other world had and this one has not): the
+    points within their reach are computed again from this world's obstacles; ``added``
+    (indices into obs_*, obstacles the other world had not): taken in where they reach.
+    Outside a gone obstacle's reach its distance never counted (the grid keeps the nearest,
+    and cap beyond reach)."""
+    gone_kind, gone_T, gone_dims = gone
+    cap32 = _lowered(cap)
+    for g in range(gone_kind.shape[0]):
+        i0, i1, j0, j1, k0, k1 = _obstacle_reach(g, gone_kind, gone_T, gone_dims, frame, dims, cap)
+        ny, nz = dims[1], dims[2]
+        for i in range(i0, i1 + 1):
+            for j in range(j0, j1 + 1):
+                row = (i * ny + j) * nz
+                for k in range(k0, k1 + 1):
+                    values[row + k] = cap32
+        for o in range(obs_kind.shape[0]):
+            a0, a1, b0, b1, c0, c1 = _obstacle_reach(o, obs_kind, obs_T, obs_dims, frame, dims, cap)
+            _lower_into(
+                values, o, obs_kind, obs_T, obs_dims, frame, dims, max(a0, i0), min(a1, i1),
+                max(b0, j0), min(b1, j1), max(c0, k0), min(c1, k1),
+            )  # fmt: skip
+    for o in added:
+        i0, i1, j0, j1, k0, k1 = _obstacle_reach(o, obs_kind, obs_T, obs_dims, frame, dims, cap)
+        _lower_into(values, o, obs_kind, obs_T, obs_dims, frame, dims, i0, i1, j0, j1, k0, k1)
 
 
 @njit(cache=True, inline="always")

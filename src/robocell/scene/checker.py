@@ -19,6 +19,7 @@ import math
 import threading
 import time
 import weakref
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -268,7 +269,12 @@ def _world_runs(
 
 
 WORLD_GRID_POINTS = 1 << 18  # at most, in the world's distance grid (1 MB of float32)
+# the last few worlds' grids, and their obstacles (kind, T, dims) to patch another world's from
 _WORLD_GRIDS: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = {}
+_WORLD_OBSTACLES: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = {}
+# a cached grid is patched (K.world_distance_patch) when the worlds differ by this many
+# obstacles at most, else computed anew
+PATCH_OBSTACLES = 4
 
 
 def world_grid(
@@ -310,12 +316,54 @@ def world_grid(
             h *= 1.05
             n = np.ceil(size / h).astype(np.int64) + 1
         frame = np.concatenate([lo - cap, [h], lo, hi, [1.0 / h]])
-        values = K.world_distance_grid(kind, T, dims, frame, n, cap)
+        values = _patched_grid(kind, T, dims, frame, n, cap)
+        if values is None:
+            values = K.world_distance_grid(kind, T, dims, frame, n, cap)
         out = (frame, n, values)
     _WORLD_GRIDS[key] = out
+    _WORLD_OBSTACLES[key] = (kind.copy(), T.copy(), dims.copy())
     while len(_WORLD_GRIDS) > 8:
+        _WORLD_OBSTACLES.pop(next(iter(_WORLD_GRIDS)))
         _WORLD_GRIDS.pop(next(iter(_WORLD_GRIDS)))
     return out
+
+
+def _patched_grid(
+    kind: NDArray[np.int64],
+    T: NDArray[np.float64],
+    dims: NDArray[np.float64],
+    frame: NDArray[np.float64],
+    n: NDArray[np.int64],
+    cap: float,
+) -> NDArray[np.float32] | None:
+    """This world's grid values patched from a cached world's with the same frame that
+    differs from it by PATCH_OBSTACLES obstacles at most (an object picked, placed or moved:
+    the rest of the cell stays), or None. A pick-and-place rebuilds its checker on every such
+    change, and the grid took 3.5 ms of a 10 ms build in the sorting cell (session 47)."""
+
+    def rows(k: NDArray[np.int64], t: NDArray[np.float64], d: NDArray[np.float64]) -> list[bytes]:
+        return [k[i].tobytes() + t[i].tobytes() + d[i].tobytes() for i in range(len(k))]
+
+    mine = rows(kind, T, dims)
+    best = None
+    for key, (f, m, values) in _WORLD_GRIDS.items():
+        if not (np.array_equal(m, n) and np.array_equal(f, frame)) or key[3] != cap:
+            continue
+        k2, T2, d2 = _WORLD_OBSTACLES[key]
+        theirs = rows(k2, T2, d2)
+        gone = list((Counter(theirs) - Counter(mine)).elements())
+        added = Counter(mine) - Counter(theirs)
+        if len(gone) + sum(added.values()) <= PATCH_OBSTACLES and (
+            best is None or len(gone) + len(added) < best[0]
+        ):
+            g = [theirs.index(r) for r in gone]
+            a = [i for i, r in enumerate(mine) if r in added]
+            best = (len(gone) + len(added), values, (k2[g], T2[g], d2[g]), np.array(a, np.int64))
+    if best is None:
+        return None
+    values = best[1].copy()
+    K.world_distance_patch(values, kind, T, dims, frame, n, cap, best[2], best[3])
+    return values
 
 
 def coal_geometry(shape: Shape) -> object:
