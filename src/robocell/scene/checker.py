@@ -345,20 +345,20 @@ def _patched_grid(
         return [k[i].tobytes() + t[i].tobytes() + d[i].tobytes() for i in range(len(k))]
 
     mine = rows(kind, T, dims)
+    counted = Counter(mine)
     best = None
     for key, (f, m, values) in _WORLD_GRIDS.items():
         if not (np.array_equal(m, n) and np.array_equal(f, frame)) or key[3] != cap:
             continue
         k2, T2, d2 = _WORLD_OBSTACLES[key]
         theirs = rows(k2, T2, d2)
-        gone = list((Counter(theirs) - Counter(mine)).elements())
-        added = Counter(mine) - Counter(theirs)
-        if len(gone) + sum(added.values()) <= PATCH_OBSTACLES and (
-            best is None or len(gone) + len(added) < best[0]
-        ):
+        gone = list((Counter(theirs) - counted).elements())
+        added = counted - Counter(theirs)
+        changes = len(gone) + sum(added.values())
+        if changes <= PATCH_OBSTACLES and (best is None or changes < best[0]):
             g = [theirs.index(r) for r in gone]
             a = [i for i, r in enumerate(mine) if r in added]
-            best = (len(gone) + len(added), values, (k2[g], T2[g], d2[g]), np.array(a, np.int64))
+            best = (changes, values, (k2[g], T2[g], d2[g]), np.array(a, np.int64))
     if best is None:
         return None
     values = best[1].copy()

@@ -146,7 +146,8 @@ def _topp_piece(
     # toppra took them through SubPath (the same side of a corner's breakpoint, to the bit)
     g = grid - grid[0]
     s = np.clip(g, 0.0, g[-1]) + grid[0]
-    xs, status, stage = TK.topp_ra(bp(s, 1), bp(s, 2), np.diff(g), v_max, a_max)
+    steps = np.diff(g)
+    xs, status, stage = TK.topp_ra(bp(s, 1), bp(s, 2), steps, v_max, a_max)
     if status != TK.TOPP_OK:
         raise PlanningError(
             f"time parameterization failed for group {group.name!r} on the path stretch "
@@ -154,14 +155,14 @@ def _topp_piece(
         )
     g_sd = np.sqrt(xs)
     with np.errstate(divide="ignore"):  # two gridpoints at rest: a stall, said below
-        g_t = np.concatenate([[0.0], np.cumsum(2.0 * np.diff(g) / (g_sd[:-1] + g_sd[1:]))])
+        g_t = np.concatenate([[0.0], np.cumsum(2.0 * steps / (g_sd[:-1] + g_sd[1:]))])
     if not np.isfinite(g_t[-1]):
         raise PlanningError(
             f"time parameterization of group {group.name!r} stalls on the path stretch "
             f"[{grid[0]:.3f}, {grid[-1]:.3f}] rad (a corner too sharp to pass)"
         )
     g_s = grid
-    g_u = 0.5 * np.diff(xs) / np.diff(g)  # s̈, constant on each grid interval
+    g_u = 0.5 * np.diff(xs) / steps  # s̈, constant on each grid interval
     # Knots from the exact profile: s̈ is constant on each grid interval, so each interval
     # is cut into knot intervals ≤ dt and the accelerations at both ends of each are taken
     # from inside it (the joint accelerations jump where s̈ or the path's curvature does).
