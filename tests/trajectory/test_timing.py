@@ -140,6 +140,19 @@ def test_compiled_topp_ra_gives_toppras_profiles(robot, request):
     assert pieces > 24
 
 
+@pytest.mark.parametrize("move", [2e-5, 1e-6, 1e-8])
+def test_a_tiny_move_arrives_where_it_was_asked(arm, move):
+    """A path that moves a joint by a few µrad is timed and ends at its last waypoint: it is
+    not taken as standing still (a relative tolerance had called joints near 3 rad equal
+    within 3e-5 rad)."""
+    q0 = np.array([0.5, 0.2, 0.1, 2.7, 0.3, 3.0])
+    q1 = q0 + np.eye(6)[5] * move
+    traj = time_optimal(arm, np.array([q0, q1]))
+    assert traj.duration > 0.0
+    assert np.allclose(traj.positions[-1], q1, rtol=0.0, atol=1e-12)
+    assert traj.limit_violations(arm) == []
+
+
 def test_rounded_corners_are_faster_than_stops(arm, path):
     stop = time_optimal(arm, path, max_deviation=0.0)
     round_ = time_optimal(arm, path, max_deviation=0.1)

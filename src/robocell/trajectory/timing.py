@@ -114,7 +114,7 @@ def time_optimal(
                 f"a path for group {group.name!r} must be finite (K, {group.dof}) waypoints, "
                 f"got shape {wp.shape}"
             )
-        if wp.shape[0] == 1 or np.allclose(wp, wp[0], atol=1e-12):
+        if wp.shape[0] == 1 or np.allclose(wp, wp[0], rtol=0.0, atol=1e-12):
             return stationary(group, wp[0])
         bp = SplinePath(wp) if smooth else BlendedPath(wp, max_deviation)
     if bp.length < 1e-9:
