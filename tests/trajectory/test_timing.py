@@ -153,6 +153,22 @@ def test_a_tiny_move_arrives_where_it_was_asked(arm, move):
     assert traj.limit_violations(arm) == []
 
 
+def test_then_joins_only_trajectories_that_meet(arm):
+    """then() joins a trajectory that starts where the first ends (within 1 µrad) and refuses
+    one that starts 20 µrad away, whatever the joints' values (a relative tolerance had let
+    joints near 3 rad jump by 3e-5 rad at the join)."""
+    q0 = np.array([0.5, 0.2, 0.1, 2.7, 0.3, 2.5])
+    q1 = q0 + np.eye(6)[5] * 0.3
+    first = time_optimal(arm, np.array([q0, q1]))
+    back = time_optimal(arm, np.array([q1, q0]))
+    joined = first.then(back)
+    assert joined.duration == pytest.approx(first.duration + back.duration)
+    assert np.allclose(joined.positions[-1], q0, rtol=0.0, atol=1e-12)
+    off = time_optimal(arm, np.array([q1 + np.eye(6)[5] * 2e-5, q0]))
+    with pytest.raises(PlanningError, match="does not start where"):
+        first.then(off)
+
+
 def test_rounded_corners_are_faster_than_stops(arm, path):
     stop = time_optimal(arm, path, max_deviation=0.0)
     round_ = time_optimal(arm, path, max_deviation=0.1)

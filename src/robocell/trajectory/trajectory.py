@@ -153,7 +153,7 @@ class JointTrajectory:
             raise PlanningError(f"then() needs a JointTrajectory, got {type(other).__name__}")
         if other.joint_names != self.joint_names:
             raise PlanningError("cannot join trajectories of different joints")
-        if not np.allclose(other.positions[0], self.positions[-1], atol=1e-6):
+        if not np.allclose(other.positions[0], self.positions[-1], rtol=0.0, atol=1e-6):
             raise PlanningError("the second trajectory does not start where the first ends")
         t = np.concatenate([self.times, self.times[-1] + other.times[1:]])
         cat = lambda a, b: np.vstack([a, b[1:]])  # noqa: E731
