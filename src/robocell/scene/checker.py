@@ -366,8 +366,30 @@ def _patched_grid(
     return values
 
 
+# coal geometry made for a shape, kept for the next checkers: a pick-and-place builds one per
+# scene change, and each made the coal geometry of every obstacle again for its exact checks
+# (boxes by value: a padded box is a new one each time; meshes by identity). coal's geometry is
+# not changed by a collision test, so checkers share it.
+_COAL_GEOMETRY: dict[Shape, object] = {}
+_COAL_GEOMETRY_LOCK = threading.Lock()
+COAL_GEOMETRY_KEPT = 256
+
+
 def coal_geometry(shape: Shape) -> object:
-    """The coal collision geometry of a shape."""
+    """The coal collision geometry of a shape (made once, then shared)."""
+    if not isinstance(shape, Box | Cylinder | Sphere | Mesh):
+        raise SceneError(f"cannot build collision geometry for {shape!r}")
+    geom = _COAL_GEOMETRY.get(shape)
+    if geom is None:
+        geom = _new_coal_geometry(shape)
+        with _COAL_GEOMETRY_LOCK:
+            _COAL_GEOMETRY[shape] = geom
+            while len(_COAL_GEOMETRY) > COAL_GEOMETRY_KEPT:
+                _COAL_GEOMETRY.pop(next(iter(_COAL_GEOMETRY)))
+    return geom
+
+
+def _new_coal_geometry(shape: Shape) -> object:
     import coal
 
     if isinstance(shape, Box):
