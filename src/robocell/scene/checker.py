@@ -1077,6 +1077,7 @@ class CollisionChecker:
         self._pack()
         self._warm_up()
         self._exact = None
+        self._pool = None
         self._broadphase: tuple[Any, Any] | None = None
         self._full_exact = None
         self._swept: dict[float, SweptCheck] = {}
@@ -1462,9 +1463,17 @@ class CollisionChecker:
                 obs_geoms.append(gm.addGeometryObject(go))
         self._geoms_of, self._obs_geoms = geoms_of, obs_geoms
         self._add_pairs(gm, self.world_pairs, self.self_pairs)
-        pool = exact_pool(pm, gm, self.exact_threads)
-        self._exact = (gm, exact_data(gm), pm.createData(), pool)
+        self._exact = (gm, exact_data(gm), pm.createData())
         return self._exact
+
+    def _exact_pool(self):  # type: ignore[no-untyped-def]
+        """The exact model's pool of geometry data for :meth:`check_exact`'s threads, made on
+        first use: a pool of two took 11 ms to make beside a 20 k-triangle mesh, and a checker
+        that checks one state at a time (:meth:`check_exact_one`) never needs it."""
+        if self._pool is None:
+            gm = self._exact_model()[0]
+            self._pool = exact_pool(self.robot.pin_model, gm, self.exact_threads)
+        return self._pool
 
     def _full(self, qs: NDArray[np.float64]) -> NDArray[np.float64]:
         full = np.tile(self.base_positions, (qs.shape[0], 1))
@@ -1478,9 +1487,10 @@ class CollisionChecker:
         q = self.group.as_joint_batch(qs)
         if self.static_collisions:
             return np.ones(q.shape[0], dtype=bool)
-        gm, _, _, pool = self._exact_model()
+        gm = self._exact_model()[0]
         if len(gm.collisionPairs) == 0:
             return np.zeros(q.shape[0], dtype=bool)
+        pool = self._exact_pool()
         Q = np.asfortranarray(self.robot.pin_configurations(self._full(q)).T)
         return np.asarray(
             pin.computeCollisionsInParallel(self.exact_threads, pool, Q, True), dtype=bool
@@ -1496,7 +1506,7 @@ class CollisionChecker:
         qv = self.group.as_joint_vector(q)
         if self.static_collisions:
             return True
-        gm, _, data, _ = self._exact_model()
+        gm, _, data = self._exact_model()
         if len(gm.collisionPairs) == 0:
             return False
         if self._broadphase is None:
@@ -1801,7 +1811,7 @@ class CollisionChecker:
         if self._full_exact is not None:
             return self._full_exact
 
-        gm0, _, _, _ = self._exact_model()
+        gm0 = self._exact_model()[0]
         gm = gm0.copy()
         gm.removeAllCollisionPairs()
         owner = {}
