@@ -368,8 +368,8 @@ def _patched_grid(
 
 # coal geometry made for a shape, kept for the next checkers: a pick-and-place builds one per
 # scene change, and each made the coal geometry of every obstacle again for its exact checks
-# (boxes by value: a padded box is a new one each time; meshes by identity). coal's geometry is
-# not changed by a collision test, so checkers share it.
+# (boxes by value: a padded box is a new one each time; meshes by identity, their arrays being
+# read-only). coal's geometry is not changed by a collision test, so checkers share it.
 _COAL_GEOMETRY: dict[Shape, object] = {}
 _COAL_GEOMETRY_LOCK = threading.Lock()
 COAL_GEOMETRY_KEPT = 256
