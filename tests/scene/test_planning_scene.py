@@ -729,7 +729,6 @@ def test_world_grid_patched_from_another_world_is_the_same_to_the_bit(scene, irb
     arm = irb120.group("arm")
     for step in range(12):
         C._WORLD_GRIDS.clear()
-        C._WORLD_OBSTACLES.clear()
         before = scene.checker(arm)
         C.world_grid(before._obs_kind, before._obs_T, before._obs_dims, 0.3)
         moved = [f"box{k}" for k in rng.choice(6, size=1 + step % 2, replace=False)]

@@ -269,9 +269,9 @@ def _world_runs(
 
 
 WORLD_GRID_POINTS = 1 << 18  # at most, in the world's distance grid (1 MB of float32)
-# the last few worlds' grids, and their obstacles (kind, T, dims) to patch another world's from
-_WORLD_GRIDS: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = {}
-_WORLD_OBSTACLES: dict[tuple[Any, ...], tuple[NDArray[Any], ...]] = {}
+# the last few worlds' grids (frame, points per axis, values) and their obstacles (kind, T,
+# dims), to patch another world's from
+_WORLD_GRIDS: dict[tuple[Any, ...], tuple[tuple[NDArray[Any], ...], tuple[NDArray[Any], ...]]] = {}
 # a cached grid is patched (K.world_distance_patch) when the worlds differ by this many
 # obstacles at most, else computed anew
 PATCH_OBSTACLES = 4
@@ -288,7 +288,7 @@ def world_grid(
     key = (kind.tobytes(), T.tobytes(), dims.tobytes(), cap)
     hit = _WORLD_GRIDS.get(key)
     if hit is not None:
-        return hit  # type: ignore[return-value]
+        return hit[0]  # type: ignore[return-value]
     if len(kind) == 0:
         out = (
             np.array([0.0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1]),
@@ -320,10 +320,8 @@ def world_grid(
         if values is None:
             values = K.world_distance_grid(kind, T, dims, frame, n, cap)
         out = (frame, n, values)
-    _WORLD_GRIDS[key] = out
-    _WORLD_OBSTACLES[key] = (kind.copy(), T.copy(), dims.copy())
+    _WORLD_GRIDS[key] = (out, (kind.copy(), T.copy(), dims.copy()))
     while len(_WORLD_GRIDS) > 8:
-        _WORLD_OBSTACLES.pop(next(iter(_WORLD_GRIDS)))
         _WORLD_GRIDS.pop(next(iter(_WORLD_GRIDS)))
     return out
 
@@ -347,13 +345,13 @@ def _patched_grid(
     mine = rows(kind, T, dims)
     counted = Counter(mine)
     best = None
-    for key, (f, m, values) in _WORLD_GRIDS.items():
+    for key, ((f, m, values), (k2, T2, d2)) in _WORLD_GRIDS.items():
         if not (np.array_equal(m, n) and np.array_equal(f, frame)) or key[3] != cap:
             continue
-        k2, T2, d2 = _WORLD_OBSTACLES[key]
         theirs = rows(k2, T2, d2)
-        gone = list((Counter(theirs) - counted).elements())
-        added = counted - Counter(theirs)
+        their_count = Counter(theirs)
+        gone = list((their_count - counted).elements())
+        added = counted - their_count
         changes = len(gone) + sum(added.values())
         if changes <= PATCH_OBSTACLES and (best is None or changes < best[0]):
             g = [theirs.index(r) for r in gone]
@@ -398,14 +396,12 @@ def _new_coal_geometry(shape: Shape) -> object:
         return coal.Cylinder(shape.radius, shape.length)
     if isinstance(shape, Sphere):
         return coal.Sphere(shape.radius)
-    if isinstance(shape, Mesh):
-        bvh = coal.BVHModelOBBRSS()
-        bvh.beginModel(len(shape.triangles), len(shape.vertices))
-        bvh.addVertices(np.ascontiguousarray(shape.vertices, dtype=np.float64))
-        bvh.addTriangles(np.ascontiguousarray(shape.triangles, dtype=np.int64))
-        bvh.endModel()
-        return bvh
-    raise SceneError(f"cannot build collision geometry for {shape!r}")
+    bvh = coal.BVHModelOBBRSS()  # a Mesh: coal_geometry let no other kind through
+    bvh.beginModel(len(shape.triangles), len(shape.vertices))
+    bvh.addVertices(np.ascontiguousarray(shape.vertices, dtype=np.float64))
+    bvh.addTriangles(np.ascontiguousarray(shape.triangles, dtype=np.int64))
+    bvh.endModel()
+    return bvh
 
 
 def exact_data(gm: Any) -> Any:
