@@ -12,6 +12,8 @@ import pytest
 from robocell.robot import RobotModel
 
 if TYPE_CHECKING:
+    from robocell.geometry import Pose
+    from robocell.robot import JointGroup
     from robocell.scene import PlanningScene
 
 REPO = Path(__file__).resolve().parent.parent
@@ -50,6 +52,31 @@ def past_a_mesh(robot: RobotModel) -> PlanningScene:
     stl = mbm_dir() / "ur5" / "meshes" / "robotiq_fts300.stl"
     scene.add_mesh("sensor", Pose((0.35, 0.0, 0.45)), stl, scale=(3, 3, 3))
     return scene
+
+
+def beyond_reach(
+    scene: PlanningScene,
+    group: JointGroup,
+    direction: tuple[float, float],
+    z: float,
+    pitch: float,
+    by: float,
+) -> Pose:
+    """A pose of "tcp" (roll 0, ``pitch``, yaw 0) ``by`` [m] beyond the reach of ``group``
+    along ``direction`` (world xy) at height ``z``: the edge found by bisection on its IK."""
+    from robocell.geometry import Pose
+    from robocell.kinematics import solve_ik
+
+    def pose(r: float) -> Pose:
+        return Pose.from_rpy(r * direction[0], r * direction[1], z, 0, pitch, 0)
+
+    base = scene.link_pose(group.base_link).inverse()
+    lo, hi = 0.2, 1.2
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        ok = solve_ik(group, base * pose(mid), tip_link="tcp", collision_free=False).success
+        lo, hi = (mid, hi) if ok else (lo, mid)
+    return pose(lo + by)
 
 
 def load_mbm(robot: str) -> RobotModel:

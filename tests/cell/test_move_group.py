@@ -9,6 +9,7 @@ import pytest
 from robocell import PlanningScene, Pose
 from robocell.cell import MoveGroup
 from robocell.errors import ExecutionError, ModelError, PlanningError, RobocellError
+from tests.conftest import beyond_reach
 
 
 @pytest.fixture
@@ -73,14 +74,114 @@ def test_non_blocking_execution_and_stop(irb120):
     arm = MoveGroup(scene, "arm", time_scale=1.0)
     arm.set_max_velocity_scaling_factor(0.2)
     arm.set_joint_value_target([1.5, 0, 0, 0, 0, 0])
-    t0 = time.perf_counter()
     assert arm.go(wait=False)
-    assert time.perf_counter() - t0 < 0.5 + arm.planning_time
+    assert not arm.last_execution.done()  # go returned while the motion runs
     time.sleep(0.2)
     arm.stop()
     q = arm.get_current_joint_values()[0]
     assert 0 < q < 1.5
     assert arm.last_execution.result.status.value == "preempted"
+
+
+def test_moveit_commander_targets_in_plan_and_go(arm):
+    """moveit_commander's forms: ``plan(target)`` and ``go(target, wait)`` with a name, joint
+    values or a Pose; ``go(False)``; a plan unpacked as ``success, trajectory, time, error``;
+    joint values remembered by name; ``shift_pose_target``."""
+    q = np.array([0.3, 0.2, 0.1, 0.0, 0.6, 0.0])
+    success, traj, planning_time, error = arm.plan(q)
+    assert success and error == "" and planning_time > 0
+    assert np.allclose(traj.positions[-1], q) and arm.execute(traj)
+    arm.remember_joint_values("here")
+    assert "here" in arm.get_named_targets() and "home" in arm.get_named_targets()
+    assert np.allclose(arm.get_remembered_joint_values()["here"], q)
+    assert arm.go("home")
+    assert np.allclose(arm.get_current_joint_values(), 0, atol=1e-9)
+    assert arm.go("here", wait=True)
+    assert np.allclose(arm.get_current_joint_values(), q)
+    assert arm.get_named_target_values("here") == dict(
+        zip(arm.get_active_joints(), q.tolist(), strict=True)
+    )
+    arm.forget_joint_values("here")
+    with pytest.raises(ModelError, match="unknown named state 'here'.*known: home"):
+        arm.go("here")
+    with pytest.raises(PlanningError, match="no joint values remembered as 'here'"):
+        arm.forget_joint_values("here")
+    with pytest.raises(PlanningError, match="outside the limits"):
+        arm.remember_joint_values("far", [4, 0, 0, 0, 0, 0])
+    assert arm.get_remembered_joint_values() == {}
+
+    target = Pose.from_rpy(0.35, 0.1, 0.25, 0, math.pi / 2, 0)
+    assert arm.go(target)
+    assert arm.get_current_pose().isclose(target, atol=1e-5, rot_atol=1e-4)
+    assert np.allclose(arm.get_current_rpy(), target.rpy(), atol=1e-4)
+    assert arm.get_planning_frame() == arm.get_pose_reference_frame() == "world"
+    # [x, y, z, roll, pitch, yaw], as moveit_commander reads six numbers
+    arm.set_pose_target([0.35, -0.1, 0.25, 0, math.pi / 2, 0])
+    assert arm.go(False)  # wait=False (demo mode here jumps: done already)
+    assert np.allclose(arm.get_current_pose().position, [0.35, -0.1, 0.25], atol=1e-5)
+    before = arm.get_current_pose()
+    arm.shift_pose_target(2, 0.05)  # 5 cm up
+    assert arm.go()
+    after = arm.get_current_pose()
+    assert np.allclose(after.position, before.position + [0, 0, 0.05], atol=1e-5)
+    assert np.allclose(after.rotation(), before.rotation(), atol=1e-4)
+    arm.shift_pose_target(5, 0.3)  # yaw
+    assert arm.go()
+    assert np.allclose(arm.get_current_rpy(), before.rpy() + [0, 0, 0.3], atol=1e-4)
+    assert np.allclose(arm.get_current_pose().position, after.position, atol=1e-5)
+    for axis, words in ((6, "axis must be 0-5"), (1.5, "whole number"), ("z", "number")):
+        with pytest.raises(PlanningError, match=words):
+            arm.shift_pose_target(axis, 0.1)
+
+
+def test_goal_tolerances_apply_when_planning_as_in_moveit(arm):
+    """A tolerance set after the target applies to it (MoveIt builds the goal's constraints
+    when it plans): a pose 3 mm beyond reach is refused, then reached within 1 cm."""
+    target = beyond_reach(arm.scene, arm.group, (0.0, 1.0), 0.3, math.pi / 2, 0.003)
+    arm.set_pose_target(target)
+    with pytest.raises(PlanningError, match="out of reach.*±0.0001 m"):
+        arm.plan()
+    arm.set_goal_tolerance(0.01)
+    assert arm.get_goal_tolerance() == (0.01, 0.01, 0.01)
+    assert arm.go()
+    assert np.linalg.norm(arm.get_current_pose().position - target.position) <= 0.01
+
+
+def test_random_targets_are_free_and_follow_the_seed(arm):
+    checker = arm.scene.checker(arm.group)
+    drawn = [arm.get_random_joint_values() for _ in range(5)]
+    for q in drawn:
+        assert arm.group.limit_violations(q) == [] and not checker.check_exact(q[None])[0]
+    assert len({tuple(q) for q in drawn}) == 5
+    again = MoveGroup(arm.scene, "arm", time_scale=0)
+    assert np.array_equal(again.get_random_joint_values(), drawn[0])
+    arm.set_random_target()
+    plan = arm.plan()
+    assert plan.success and not checker.check_exact(plan.path[-1:])[0]
+
+
+def test_jacobian_matches_finite_differences(arm):
+    """Columns: the end-effector link's origin (or a point on it) moving, and its frame
+    turning, in the robot's root frame, per joint."""
+    from robocell.kinematics import fk
+
+    q = np.array([0.3, 0.2, -0.4, 0.5, 0.6, -0.2])
+    point = np.array([0.0, 0.02, 0.1])
+    J = arm.get_jacobian_matrix(q)
+    Jp = arm.get_jacobian_matrix(q, point)
+    h = 1e-6
+    for j in range(6):
+        dq = np.zeros(6)
+        dq[j] = h
+        Ta, Tb = fk(arm.group, q - dq, "tcp"), fk(arm.group, q + dq, "tcp")
+        assert np.allclose((Tb[:3, 3] - Ta[:3, 3]) / (2 * h), J[:3, j], atol=1e-6)
+        pa, pb = Ta[:3, :3] @ point + Ta[:3, 3], Tb[:3, :3] @ point + Tb[:3, 3]
+        assert np.allclose((pb - pa) / (2 * h), Jp[:3, j], atol=1e-6)
+        dR = (Tb[:3, :3] - Ta[:3, :3]) / (2 * h) @ fk(arm.group, q, "tcp")[:3, :3].T
+        assert np.allclose([dR[2, 1], dR[0, 2], dR[1, 0]], J[3:, j], atol=1e-6)
+    assert np.array_equal(J[3:], Jp[3:])
+    with pytest.raises(RobocellError, match="reference point"):
+        arm.get_jacobian_matrix(q, [0, 1])
 
 
 def test_attach_detach(arm):
@@ -156,6 +257,21 @@ GROUP_CALLS = {
     ),
     "move_relative (rpy)": (lambda g, v: g.move_relative((0, 0, 0.01), v), VECTORS),
     "move_relative (frame)": (lambda g, v: g.move_relative((0, 0, 0.01), (0, 0, 0), v), NAMES),
+    "plan (target)": (lambda g, v: g.plan(v), [*NAMES, [1, 2], [0, 0, float("nan"), 0, 0, 0]]),
+    "go (target)": (lambda g, v: g.go(v), [*NAMES, [0, 0, 0, 0, 0, 9]]),
+    "shift_pose_target (axis)": (lambda g, v: g.shift_pose_target(v, 0.01), NUMBERS),
+    "shift_pose_target (value)": (lambda g, v: g.shift_pose_target(2, v), NUMBERS),
+    "remember_joint_values (name)": (
+        lambda g, v: g.remember_joint_values(v),
+        [None, "", *NAMES[1:]],
+    ),
+    "remember_joint_values (values)": (lambda g, v: g.remember_joint_values("a", v), VECTORS[1:]),
+    "forget_joint_values": (lambda g, v: g.forget_joint_values(v), [None, *NAMES]),
+    "get_jacobian_matrix": (lambda g, v: g.get_jacobian_matrix(v), VECTORS),
+    "get_jacobian_matrix (point)": (
+        lambda g, v: g.get_jacobian_matrix(np.zeros(6), v),
+        ["abc", [1, 2], {"x": 1.0}, [0.3, float("nan"), 0.3], 3.5],
+    ),
     "detach_object": (lambda g, v: g.detach_object(v), [None, *NAMES]),
     "attach_object": (lambda g, v: g.attach_object(v), [None, *NAMES]),
     "scene.set_object_padding": (lambda g, v: g.scene.set_object_padding("table", v), NUMBERS),

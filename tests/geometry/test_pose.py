@@ -56,6 +56,21 @@ def test_pose_normalizes_and_reads_forms():
     assert Pose.from_any([0, 0, 0, 0, 0, 0, 1]).isclose(Pose())
 
 
+def test_six_numbers_are_a_position_and_roll_pitch_yaw_as_moveit_commander_reads_them():
+    """[x, y, z, roll, pitch, yaw]: tf's static x-y-z angles, R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    r, p, y = 0.3, -0.5, 1.2
+    c, s = math.cos, math.sin
+    Rx = np.array([[1, 0, 0], [0, c(r), -s(r)], [0, s(r), c(r)]])
+    Ry = np.array([[c(p), 0, s(p)], [0, 1, 0], [-s(p), 0, c(p)]])
+    Rz = np.array([[c(y), -s(y), 0], [s(y), c(y), 0], [0, 0, 1]])
+    pose = Pose.from_any([0.4, -0.1, 0.25, r, p, y])
+    assert np.allclose(pose.position, [0.4, -0.1, 0.25])
+    assert np.allclose(pose.rotation(), Rz @ Ry @ Rx, atol=1e-12)
+    assert np.allclose(pose.rpy(), [r, p, y])
+    with pytest.raises(GeometryError, match="roll, pitch, yaw"):
+        Pose.from_any([0, 0, 0, math.nan, 0, 0])
+
+
 @pytest.mark.parametrize(
     "position, orientation, words",
     [

@@ -20,7 +20,7 @@ from robocell.planning import (
 from robocell.planning.rrt import Edges, Seeds, rrt_connect_compiled
 from robocell.scene.moveit_yaml import load_request, load_scene
 from robocell.trajectory import BlendedPath
-from tests.conftest import mbm_dir
+from tests.conftest import beyond_reach, mbm_dir
 from tests.planning.conftest import GOAL, START
 
 
@@ -168,6 +168,55 @@ def test_position_goal(walled):
     plan = Planner(walled).plan(MotionPlanRequest("arm", PositionGoal("tcp", p), start=START))
     _assert_valid(walled, arm, plan)
     assert np.allclose(fk(arm, plan.path[-1], "tcp")[:3, 3], p, atol=1e-4)
+
+
+def test_goal_tolerances_take_a_goal_met_within_them(walled):
+    """MoveIt's goal constraints: a goal no configuration meets exactly is met by one within
+    its tolerances. A joint goal touching the floor, a pose and a position 3 mm beyond
+    reach: refused with the default tolerances (saying so), planned with wider ones, the
+    plan ending free and within them."""
+    arm = walled.robot.group("arm")
+    checker = walled.checker(arm)
+    planner = Planner(walled)
+    touching = START.copy()
+    while not checker.check(touching)[0]:
+        touching[1] += 0.005
+    with pytest.raises(PlanningError, match="in collision: .*floor.*tolerance"):
+        planner.plan(MotionPlanRequest("arm", JointGoal(touching), start=START))
+    plan = planner.plan(MotionPlanRequest("arm", JointGoal(touching, 0.02), start=START))
+    _assert_valid(walled, arm, plan)
+    end = plan.path[-1]
+    assert np.abs(end - touching).max() <= 0.02 and not np.array_equal(end, touching)
+
+    target = beyond_reach(walled, arm, (0.0, -1.0), 0.3, math.pi / 2, 0.003)
+    with pytest.raises(PlanningError, match="no solution.*out of reach.*tolerance"):
+        planner.plan(MotionPlanRequest("arm", PoseGoal("tcp", target), start=START))
+    plan = planner.plan(MotionPlanRequest("arm", PoseGoal("tcp", target, 0.01, 0.01), start=START))
+    _assert_valid(walled, arm, plan)
+    T = fk(arm, plan.path[-1], "tcp")
+    assert 0.003 - 1e-6 <= np.linalg.norm(T[:3, 3] - target.position) <= 0.01
+    cos = (np.trace(T[:3, :3].T @ target.rotation()) - 1) / 2
+    assert math.acos(min(1.0, cos)) <= 0.01
+
+    # any orientation reaches farther: the edge of what the planner reaches, by bisection
+    def reached(r):
+        try:
+            planner.goal_configurations(arm, PositionGoal("tcp", [0, -r, 0.3]), START, checker)
+        except PlanningError as e:
+            assert "out of reach" in str(e)
+            return False
+        return True
+
+    lo, hi = 0.2, 1.2
+    for _ in range(24):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if reached(mid) else (lo, mid)
+    p = np.array([0, -(hi + 0.003), 0.3])
+    with pytest.raises(PlanningError, match="out of reach"):
+        planner.plan(MotionPlanRequest("arm", PositionGoal("tcp", p), start=START))
+    plan = planner.plan(MotionPlanRequest("arm", PositionGoal("tcp", p, 0.01), start=START))
+    _assert_valid(walled, arm, plan)
+    assert np.linalg.norm(fk(arm, plan.path[-1], "tcp")[:3, 3] - p) <= 0.01
 
 
 def test_named_goal_and_mbm_problem(mbm_ur5):

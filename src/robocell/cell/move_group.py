@@ -13,14 +13,24 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import ExecutionError, PlanningError, choices, name_or, number, vector
+from robocell.errors import (
+    ExecutionError,
+    ModelError,
+    PlanningError,
+    choices,
+    name_or,
+    number,
+    vector,
+    whole,
+)
 from robocell.execution.controller import Controller, ExecutionHandle, KinematicController
 from robocell.geometry.pose import Pose
+from robocell.kinematics.fk import fk, jacobian
 from robocell.planning.cartesian import (
     compute_cartesian_path,
     compute_linear_sequence,
@@ -89,6 +99,8 @@ class MoveGroup:
         self.end_effector_link = self.group.tip_link
         self._handle: ExecutionHandle | None = None
         self.seed: int | None = 0
+        self._remembered: dict[str, NDArray[np.float64]] = {}
+        self._rng: np.random.Generator | None = None
         #: copies the executing robot's state into the scene (physics mode) before it is read
         self.sync_state: Callable[[], None] | None = None
 
@@ -114,12 +126,86 @@ class MoveGroup:
         """``link``, or the end-effector link for None or "" (MoveIt's default argument)."""
         return name_or(link, self.end_effector_link)
 
+    def get_current_rpy(self, link: str | None = None) -> list[float]:
+        """Roll, pitch and yaw [rad] of ``link`` (default: the end-effector link) in the world
+        frame, now (tf's static x-y-z angles, as MoveIt)."""
+        return [float(a) for a in self.get_current_pose(link).rpy()]
+
+    def get_planning_frame(self) -> str:
+        """The frame poses are given and returned in: the scene's world frame."""
+        return WORLD_FRAME
+
+    def get_pose_reference_frame(self) -> str:
+        """The frame of pose targets: the scene's world frame (as :meth:`get_planning_frame`)."""
+        return WORLD_FRAME
+
     def get_named_targets(self) -> list[str]:
-        return sorted(self.group.named_states)
+        """The SRDF's group states and the joint values remembered by name
+        (:meth:`remember_joint_values`), as MoveIt lists both."""
+        return sorted(set(self.group.named_states) | set(self._remembered))
 
     def get_named_target_values(self, name: str) -> dict[str, float]:
-        q = self.group.named(name)
+        q = self._named(name)
         return dict(zip(self.group.joint_names, q.tolist(), strict=True))
+
+    def _named(self, name: str) -> NDArray[np.float64]:
+        """The joint values named ``name``: remembered ones first, then the SRDF's (as
+        MoveIt's setNamedTarget looks them up)."""
+        if isinstance(name, str) and name in self._remembered:
+            return self._remembered[name].copy()
+        if isinstance(name, str) and name in self.group.named_states:
+            return self.group.named(name)
+        raise ModelError(
+            f"unknown named state {name!r} of group {self.group.name!r}; "
+            f"known: {choices(self.get_named_targets())}"
+        )
+
+    def remember_joint_values(self, name: str, values: ArrayLike | None = None) -> None:
+        """Remember ``values`` (default: the current joint values) as the named target
+        ``name``, for :meth:`set_named_target`, ``plan(name)`` and ``go(name)``; a
+        remembered name hides an SRDF state of the same name."""
+        if not isinstance(name, str) or not name:
+            raise PlanningError(f"a remembered target needs a name (a non-empty str), got {name!r}")
+        q = (
+            self.get_current_joint_values()
+            if values is None
+            else self.group.as_joint_vector(values, f"joint values for {name!r}")
+        )
+        bad = self.group.limit_violations(q)
+        if bad:
+            raise PlanningError(f"joint values for {name!r} outside the limits: {'; '.join(bad)}")
+        self._remembered[name] = q
+
+    def get_remembered_joint_values(self) -> dict[str, list[float]]:
+        """The joint values remembered by name, each in the group's joint order."""
+        return {name: q.tolist() for name, q in self._remembered.items()}
+
+    def forget_joint_values(self, name: str) -> None:
+        """Forget the joint values remembered as ``name``."""
+        if not isinstance(name, str) or name not in self._remembered:
+            raise PlanningError(
+                f"no joint values remembered as {name!r}; remembered: {choices(self._remembered)}"
+            )
+        del self._remembered[name]
+
+    def get_jacobian_matrix(
+        self, joint_values: ArrayLike, reference_point: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """The geometric Jacobian (6, dof) of the end-effector link at ``joint_values``: rows
+        (vx, vy, vz, wx, wy, wz) in the robot's root frame (MoveIt's model frame), of the
+        link's origin or of ``reference_point`` [m], a point in the link's frame."""
+        q = self.group.as_joint_vector(joint_values, "joint values")
+        link = self.end_effector_link
+        with self._lock:
+            base = self.scene.state.positions.copy()
+        J = jacobian(self.group, q, link, base)
+        if reference_point is not None:
+            p = vector(reference_point, 3, "reference point", PlanningError)
+            r = fk(self.group, q, link, base)[:3, :3] @ p  # the point from the origin, root frame
+            # v_point = v_origin + w x r = v_origin - [r]x w
+            rx = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+            J[:3] -= rx @ J[3:]
+        return J
 
     def set_end_effector_link(self, link: str) -> None:
         self.scene.robot.link_index(link, "end-effector link")
@@ -156,6 +242,22 @@ class MoveGroup:
     def set_goal_orientation_tolerance(self, tolerance: float) -> None:
         self.orientation_tolerance = _positive(tolerance, "orientation tolerance")
 
+    def get_planning_time(self) -> float:
+        return self.planning_time
+
+    def get_goal_tolerance(self) -> tuple[float, float, float]:
+        """(joint [rad], position [m], orientation [rad]) tolerances, as MoveIt."""
+        return self.joint_tolerance, self.position_tolerance, self.orientation_tolerance
+
+    def get_goal_joint_tolerance(self) -> float:
+        return self.joint_tolerance
+
+    def get_goal_position_tolerance(self) -> float:
+        return self.position_tolerance
+
+    def get_goal_orientation_tolerance(self) -> float:
+        return self.orientation_tolerance
+
     def set_planner_id(self, planner_id: str) -> None:
         """The planner by MoveIt's name (``RRTConnectkConfigDefault``, …; an OMPL planner
         needs ``pip install ompl``), or "" for the native planner (checked when planning)."""
@@ -170,7 +272,8 @@ class MoveGroup:
         self._start = None
 
     def set_named_target(self, name: str) -> None:
-        self._goal = JointGoal(self.group.named(name), self.joint_tolerance)
+        """A joint goal by name: joint values remembered by that name, or the SRDF's state."""
+        self._goal = JointGoal(self._named(name), self.joint_tolerance)
 
     def set_joint_value_target(self, q: ArrayLike | dict[str, float]) -> None:
         """A joint goal: a vector in the group's order, or {joint name: value} (other joints
@@ -207,22 +310,90 @@ class MoveGroup:
         self.scene.robot.link_index(link, "position target link")
         self._goal = PositionGoal(link, p, self.position_tolerance)
 
+    def shift_pose_target(self, axis: int, value: float, link: str | None = None) -> None:
+        """A pose target: the current pose of ``link`` (default: the end-effector link) with
+        ``value`` added along ``axis`` 0–5: x, y, z [m] or roll, pitch, yaw [rad] of the
+        world frame (as MoveIt: the angles are the pose's tf roll, pitch and yaw)."""
+        i = whole(axis, "axis (0-5: x, y, z, roll, pitch, yaw)", PlanningError)
+        if not 0 <= i <= 5:
+            raise PlanningError(f"axis must be 0-5 (x, y, z, roll, pitch, yaw), got {axis!r}")
+        d = number(value, f"shift along axis {i}", PlanningError)
+        link = self._link(link)
+        pose = self.get_current_pose(link)
+        xyz_rpy = np.concatenate([pose.position, pose.rpy()])
+        xyz_rpy[i] += d
+        target = Pose(xyz_rpy[:3], pose.orientation) if i < 3 else Pose.from_rpy(*xyz_rpy)
+        self._goal = PoseGoal(link, target, self.position_tolerance, self.orientation_tolerance)
+
+    def set_random_target(self) -> None:
+        """A joint goal drawn uniformly within the limits among the states free of collision
+        in the scene as it is (MoveIt draws within the limits only, and its plan then fails
+        on a colliding one); the draws follow the group's ``seed``."""
+        self._goal = JointGoal(self.get_random_joint_values(), self.joint_tolerance)
+
+    def get_random_joint_values(self) -> NDArray[np.float64]:
+        """Joint values drawn uniformly within the limits, free of collision in the scene as
+        it is (the group's ``seed`` seeds the draws)."""
+        if self._rng is None:
+            self._rng = np.random.default_rng(self.seed)
+        with self._lock:
+            checker = self.scene.checker(self.group)
+        for _ in range(RANDOM_BATCHES):
+            qs = self.group.random(self._rng, RANDOM_BATCH)
+            free = np.flatnonzero(~checker.check(qs))
+            if len(free):
+                return qs[free[0]]
+        raise PlanningError(
+            f"no collision-free state of group {self.group.name!r} in "
+            f"{RANDOM_BATCHES * RANDOM_BATCH} draws within its limits"
+        )
+
     def clear_pose_targets(self) -> None:
         self._goal = None
 
-    # ------------------------------------------------------------------ plan and move
-    def plan(self, fix_start: bool = False) -> MotionPlan:
-        """Plan from the start state (default: current) to the target set last."""
-        if self._goal is None:
+    def _set_target(self, target: object) -> None:
+        """moveit_commander's target argument of ``plan`` and ``go``: a name (remembered or
+        the SRDF's), a Pose (pose target), joint values (a vector or {joint: value})."""
+        if isinstance(target, str):
+            self.set_named_target(target)
+        elif isinstance(target, Pose):
+            self.set_pose_target(target)
+        else:
+            self.set_joint_value_target(target)  # type: ignore[arg-type]
+
+    def _goal_now(self) -> Goal:
+        """The target set last, with the tolerances set now: MoveIt builds a request's goal
+        constraints when it plans, so a tolerance set after the target applies to it."""
+        goal = self._goal
+        if goal is None:
             raise PlanningError(
                 "no target: call set_named_target, set_joint_value_target, set_pose_target "
                 "or set_position_target first"
             )
+        if isinstance(goal, JointGoal):
+            return replace(goal, tolerance=self.joint_tolerance)
+        if isinstance(goal, PoseGoal):
+            return replace(
+                goal,
+                position_tolerance=self.position_tolerance,
+                orientation_tolerance=self.orientation_tolerance,
+            )
+        return replace(goal, tolerance=self.position_tolerance)
+
+    # ------------------------------------------------------------------ plan and move
+    def plan(self, joints: object = None, *, fix_start: bool = False) -> MotionPlan:
+        """Plan from the start state (default: current) to the target set last, or to
+        ``joints`` (set as the target first, as moveit_commander's ``plan(joints)``: a named
+        target, a Pose, or joint values). The plan unpacks as MoveIt's ``success,
+        trajectory, planning_time, error`` (here the error is the reason, "" on success)."""
+        if joints is not None:
+            self._set_target(joints)
+        goal = self._goal_now()
         if self.sync_state is not None:
             self.sync_state()
         request = MotionPlanRequest(
             group=self.group.name,
-            goal=self._goal,
+            goal=goal,
             start=self._start if self._start is not None else self.get_current_joint_values(),
             planning_time=self.planning_time,
             attempts=self.attempts,
@@ -247,9 +418,13 @@ class MoveGroup:
         self._handle.wait()
         return self._handle.result.success
 
-    def go(self, wait: bool = True) -> bool:
-        """Plan to the target and execute; False if planning or execution failed."""
-        plan = self.plan()
+    def go(self, joints: object = None, wait: bool = True) -> bool:
+        """Plan to the target (or to ``joints``, as :meth:`plan`) and execute; False if
+        planning or execution failed. ``go(False)`` is ``go(wait=False)``, as MoveIt's."""
+        if isinstance(joints, bool):
+            wait = joints
+            joints = None
+        plan = self.plan(joints)
         if not plan.success:
             return False
         return self.execute(plan, wait)
@@ -378,6 +553,12 @@ class MoveGroup:
     def detach_object(self, id: str) -> CollisionObject:
         with self._lock:
             return self.scene.detach_object(id)
+
+
+#: the frame of every pose a MoveGroup takes and returns
+WORLD_FRAME = "world"
+#: random targets: draws per batch, batches before giving up
+RANDOM_BATCH, RANDOM_BATCHES = 64, 16
 
 
 def _positive(v: float, what: str) -> float:

@@ -197,8 +197,10 @@ class Pose:
 
     @classmethod
     def from_any(cls, value: Any) -> Pose:
-        """A Pose from a Pose, a 4×4 matrix, ``[x, y, z]``, ``[x, y, z, qx, qy, qz, qw]`` or
-        ``{"position": ..., "orientation": ...}`` (the forms cell files and MoveIt YAML use)."""
+        """A Pose from a Pose, a 4×4 matrix, ``[x, y, z]``, ``[x, y, z, qx, qy, qz, qw]``,
+        ``[x, y, z, roll, pitch, yaw]`` (radians, as tf: moveit_commander's six-number form)
+        or ``{"position": ..., "orientation": ...}`` (the forms cell files and MoveIt YAML
+        use)."""
         if isinstance(value, Pose):
             return value
         if isinstance(value, dict):
@@ -218,9 +220,11 @@ class Pose:
             return cls(arr)
         if arr.shape == (7,):
             return cls(arr[:3], arr[3:])
+        if arr.shape == (6,):
+            return cls.from_rpy(*(float(v) for v in arr))
         raise GeometryError(
             f"cannot read a pose from {value!r}; give a Pose, a 4x4 matrix, [x, y, z], "
-            "[x, y, z, qx, qy, qz, qw] or {position, orientation}"
+            "[x, y, z, qx, qy, qz, qw], [x, y, z, roll, pitch, yaw] or {position, orientation}"
         )
 
     def matrix(self) -> FloatArray:

@@ -8,7 +8,7 @@ from __future__ import annotations
 import functools
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from robocell.errors import PlanningError, choices, number, vector, whole
 from robocell.geometry.pose import Pose
-from robocell.kinematics.ik import NumericIK, NumericIKConfig, solve_ik
+from robocell.kinematics.ik import IKResult, NumericIK, NumericIKConfig, solve_ik
 from robocell.planning import _kernels as PK
 from robocell.planning.request import (
     Goal,
@@ -60,6 +60,8 @@ NATIVE_PLANNERS = ("", "rrtconnect", "robocell")
 FINAL_CHUNK = 32
 # waypoints a detour tries, at radii from 0.02 to 0.4 rad (_radii)
 DETOUR_TRIES = 24
+# a joint goal in collision: states drawn within its tolerance, and the nearest free ones kept
+GOAL_DRAWS, GOAL_NEAR = 256, 4
 CheckOutputs = tuple[NDArray, ...]  # _kernels.validate_path's
 
 
@@ -156,6 +158,7 @@ class Planner:
         self.scene = scene
         self.config = config or PlannerConfig()
         self._position_ik: dict[tuple[str, str], NumericIK] = {}
+        self._approximate: dict[tuple[str, str], NumericIK] = {}
 
     # ------------------------------------------------------------------ public
     def plan(self, request: MotionPlanRequest) -> MotionPlan:
@@ -328,7 +331,13 @@ class Planner:
             if bad:
                 raise PlanningError(f"joint goal outside the limits: {'; '.join(bad)}")
             if collisions and checker.collides(q):
-                raise PlanningError(f"joint goal is in collision: {_pairs(checker, q)}")
+                near = self._free_near(group, q, goal.tolerance, checker)
+                if len(near):
+                    return near
+                raise PlanningError(
+                    f"joint goal is in collision: {_pairs(checker, q)}; no state within its "
+                    f"tolerance (±{goal.tolerance:g} rad) is free"
+                )
             return q[None, :]
         robot = self.scene.robot
         if isinstance(goal, PoseGoal | PositionGoal):
@@ -363,7 +372,17 @@ class Planner:
                 sols = np.vstack([res.solutions, more.solutions])
                 return _unique(sols)
             if not res.success:
-                raise PlanningError(f"pose goal for {goal.link!r} has no solution: {res.reason}")
+                near = self._approximate_ik(
+                    group, goal.link, T, seed, checker, goal.position_tolerance,
+                    goal.orientation_tolerance,
+                )  # fmt: skip
+                if len(near):
+                    return near
+                raise PlanningError(
+                    f"pose goal for {goal.link!r} has no solution: {res.reason}; none within "
+                    f"its tolerance (±{goal.position_tolerance:g} m, "
+                    f"±{goal.orientation_tolerance:g} rad) either"
+                )
             return res.solutions
         if isinstance(goal, PositionGoal):
             p = vector(goal.position, 3, "a position goal", PlanningError)
@@ -377,9 +396,14 @@ class Planner:
                     NumericIKConfig(position_only=True, tol_pos=min(goal.tolerance, 1e-4)),
                 )
             ik = self._position_ik[key]
+            # this goal's tolerance, not the first one's that made the solver
+            ik.config = replace(ik.config, tol_pos=min(goal.tolerance, 1e-4))
             ik.set_base_positions(self.scene.state.positions)
             gen = np.random.default_rng(0)
             res = ik.solve(T, seed, gen, self.config.ik_timeout, self.config.numeric_goal_solutions)
+            if not res.success and goal.tolerance > ik.config.tol_pos:
+                near = self._approximate_ik(group, goal.link, T, seed, None, goal.tolerance, None)
+                res = IKResult(near, res.solver, res.reason) if len(near) else res
             if not res.success:
                 raise PlanningError(
                     f"position goal for {goal.link!r} at {p.round(4).tolist()} is out of reach: "
@@ -395,6 +419,55 @@ class Planner:
         raise PlanningError(
             f"unknown goal type {type(goal).__name__}; use JointGoal, PoseGoal or PositionGoal"
         )
+
+    def _free_near(
+        self,
+        group: JointGroup,
+        q: NDArray[np.float64],
+        tolerance: float,
+        checker: CollisionChecker,
+    ) -> NDArray[np.float64]:
+        """Free states within ``tolerance`` of the joint goal ``q`` on every joint (MoveIt's
+        joint constraints: any of them meets the goal), nearest ``q`` first; (0, dof) when
+        none of ``GOAL_DRAWS`` draws in that box (within the limits) is free."""
+        lo = np.maximum(q - tolerance, group.lower)
+        hi = np.minimum(q + tolerance, group.upper)
+        qs = np.random.default_rng(0).uniform(lo, hi, size=(GOAL_DRAWS, group.dof))
+        free = qs[~checker.check(qs)]
+        order = np.argsort(np.abs(free - q).max(axis=1), kind="stable")
+        return free[order[:GOAL_NEAR]]
+
+    def _approximate_ik(
+        self,
+        group: JointGroup,
+        link: str,
+        T: NDArray[np.float64],
+        seed: NDArray[np.float64],
+        checker: CollisionChecker | None,
+        position_tolerance: float,
+        orientation_tolerance: float | None,
+    ) -> NDArray[np.float64]:
+        """Configurations that bring ``link`` within the goal's tolerances of ``T`` (the
+        group's base frame; ``orientation_tolerance`` None: the position only), free of
+        collision (with a ``checker``), nearest ``seed`` first: where no configuration reaches
+        the goal exactly, MoveIt's goal constraints still take one within their tolerances.
+        One batch of the numeric solver's restarts (1–2 ms), as this runs only when the
+        exact goal failed."""
+        key = (group.name, link)
+        ik = self._approximate.get(key)
+        if ik is None:
+            ik = self._approximate[key] = NumericIK(group, link)
+        ik.config = NumericIKConfig(
+            tol_pos=position_tolerance,
+            tol_rot=math.inf if orientation_tolerance is None else orientation_tolerance,
+            position_only=orientation_tolerance is None,
+        )
+        ik.set_base_positions(self.scene.state.positions)
+        res = ik.solve(T, seed, np.random.default_rng(2), 0.0, self.config.numeric_goal_solutions)
+        sols = res.solutions
+        if checker is not None and len(sols):
+            sols = sols[~checker.check(sols)]
+        return sols
 
     # ------------------------------------------------------------------ steps
     def _start(

@@ -5,6 +5,7 @@ Poses and positions of goals are in the planning scene's world frame.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -88,6 +89,11 @@ class MotionPlan:
 
     def __bool__(self) -> bool:
         return self.success
+
+    def __iter__(self) -> Iterator[object]:
+        """Unpacks as moveit_commander's ``plan()`` result since Noetic: ``success,
+        trajectory, planning_time, error`` (here the error is ``reason``, "" on success)."""
+        return iter((self.success, self.trajectory, self.planning_time, self.reason))
 
     @property
     def path_length(self) -> float:
