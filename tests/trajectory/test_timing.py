@@ -5,7 +5,7 @@ import pytest
 
 from robocell.errors import PlanningError, RobocellWarning
 from robocell.execution.controller import stopping_trajectory
-from robocell.trajectory import BlendedPath, jerk_limited, ptp, time_optimal
+from robocell.trajectory import BlendedPath, JointTrajectory, jerk_limited, ptp, time_optimal
 from robocell.trajectory import _kernels as TK
 from robocell.trajectory.path import SplinePath, SubPath
 from robocell.trajectory.timing import DEFAULT_LIMITS, _limits, joint_limits
@@ -167,6 +167,21 @@ def test_then_joins_only_trajectories_that_meet(arm):
     off = time_optimal(arm, np.array([q1 + np.eye(6)[5] * 2e-5, q0]))
     with pytest.raises(PlanningError, match="does not start where"):
         first.then(off)
+
+
+def test_limit_violations_name_the_sample_farthest_outside(arm):
+    """A joint above its upper limit whose largest |value| is inside (below zero): the message
+    gives the value above the limit and its time (it gave the largest |value|, inside)."""
+    hi = arm.upper[2]  # joint_3: [-1.9199, 1.2217]
+    q = np.zeros((3, 6))
+    q[:, 2] = [-1.8, hi + 0.1, 0.0]
+    traj = JointTrajectory(list(arm.joint_names), np.array([0.0, 1.0, 2.0]), q, q * 0, q * 0)
+    (msg,) = [m for m in traj.limit_violations(arm, dt=0.001) if " position " in m]
+    t = float(msg.split("at t=")[1].split(" s")[0])
+    value = float(msg.split()[2])
+    assert msg.startswith("joint_3 position") and value > hi and 0.9 < t < 1.1
+    highest = traj.sample(np.arange(0, 2, 0.001)).positions[:, 2].max()
+    assert value == pytest.approx(highest, abs=1e-4)
 
 
 def test_rounded_corners_are_faster_than_stops(arm, path):

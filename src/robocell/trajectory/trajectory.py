@@ -205,9 +205,10 @@ class JointTrajectory:
         )
         for what, vals, lo, hi, tol in checks:
             slack = tol * np.maximum(np.abs(hi), 1.0) if what != "position" else tol
-            bad = (vals < lo - slack) | (vals > hi + slack)
+            excess = np.maximum(lo - vals, vals - hi)  # > 0 outside the limits
+            bad = excess > slack
             for j in np.flatnonzero(bad.any(axis=0)):
-                k = int(np.argmax(np.abs(vals[:, j])))
+                k = int(np.argmax(excess[:, j]))  # the sample farthest outside
                 out.append(
                     f"{group.joint_names[j]} {what} {vals[k, j]:.4f} at t={ts[k]:.3f} s "
                     f"outside [{lo[j]:.4f}, {hi[j]:.4f}]"
