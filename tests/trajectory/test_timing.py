@@ -184,6 +184,23 @@ def test_limit_violations_name_the_sample_farthest_outside(arm):
     assert value == pytest.approx(highest, abs=1e-4)
 
 
+def test_waypoints_outside_the_limits_or_a_negative_deviation_are_refused(arm):
+    """Before timing, naming the waypoint and the joint (the trajectory would have gone
+    outside the limits, for the execution to refuse)."""
+    q0, q1 = np.zeros(6), np.array([0.5, 0.2, 0.1, 0.0, 0.3, 0.0])
+    far = q1.copy()
+    far[4] = arm.upper[4] + 0.01
+    with pytest.raises(PlanningError, match=r"waypoint 2 of 3 .*joint_5=2\.1044 not in"):
+        time_optimal(arm, np.array([q0, q1, far]))
+    with pytest.raises(PlanningError, match="waypoint 0 of 2"):
+        time_optimal(arm, np.array([far, q0]), smooth=True)
+    edge = q1.copy()
+    edge[4] = arm.upper[4] + 5e-7  # within the rounding the execution's check allows
+    assert time_optimal(arm, np.array([q0, edge])).limit_violations(arm) == []
+    with pytest.raises(PlanningError, match="max_deviation"):
+        time_optimal(arm, np.array([q0, q1, q0]), max_deviation=-0.1)
+
+
 def test_rounded_corners_are_faster_than_stops(arm, path):
     stop = time_optimal(arm, path, max_deviation=0.0)
     round_ = time_optimal(arm, path, max_deviation=0.1)

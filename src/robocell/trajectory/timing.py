@@ -16,11 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robocell.errors import PlanningError, RobocellWarning, floats, unknown
+from robocell.errors import PlanningError, RobocellWarning, floats, number, unknown
 from robocell.robot.model import JointGroup
 from robocell.trajectory import _kernels as TK
 from robocell.trajectory.path import BlendedPath, SplinePath
-from robocell.trajectory.trajectory import JointTrajectory, stationary
+from robocell.trajectory.trajectory import POSITION_SLACK, JointTrajectory, stationary
 
 KNOT_DT = 0.004  # [s] knot spacing of generated trajectories (250 Hz, a servo rate)
 # MoveIt's limits for a joint whose URDF and joint_limits.yaml give none: its time-optimal
@@ -114,8 +114,19 @@ def time_optimal(
                 f"a path for group {group.name!r} must be finite (K, {group.dof}) waypoints, "
                 f"got shape {wp.shape}"
             )
+        # refused here rather than by the execution's check of the trajectory (the same
+        # tolerance: JointTrajectory.limit_violations)
+        outside = ~group.within_limits(wp, POSITION_SLACK)
+        if outside.any():
+            k = int(np.argmax(outside))
+            raise PlanningError(
+                f"waypoint {k} of {wp.shape[0]} is outside the joint limits: "
+                f"{'; '.join(group.limit_violations(wp[k], POSITION_SLACK))}"
+            )
         if wp.shape[0] == 1 or np.allclose(wp, wp[0], rtol=0.0, atol=1e-12):
             return stationary(group, wp[0])
+        if not number(max_deviation, "max_deviation [rad]", PlanningError) >= 0:
+            raise PlanningError(f"max_deviation must be >= 0 [rad], got {max_deviation!r}")
         bp = SplinePath(wp) if smooth else BlendedPath(wp, max_deviation)
     if bp.length < 1e-9:
         return stationary(group, bp(0.0))

@@ -17,6 +17,10 @@ from robocell.errors import PlanningError, floats, number
 from robocell.robot.model import JointGroup
 from robocell.trajectory import _kernels as TK
 
+#: [rad or m] how far outside a joint's position limits a trajectory may go before it counts
+#: as outside them (rounding of the samples between knots)
+POSITION_SLACK = 1e-6
+
 
 @dataclass(frozen=True)
 class TrajectorySample:
@@ -187,7 +191,7 @@ class JointTrajectory:
         s = self.sample(ts)
         out = []
         checks = (
-            ("position", s.positions, group.lower, group.upper, 1e-6),
+            ("position", s.positions, group.lower, group.upper, POSITION_SLACK),
             (
                 "velocity",
                 s.velocities,
