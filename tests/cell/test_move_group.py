@@ -9,6 +9,7 @@ import pytest
 from robocell import PlanningScene, Pose
 from robocell.cell import MoveGroup
 from robocell.errors import ExecutionError, ModelError, PlanningError, RobocellError
+from robocell.kinematics import fk
 from tests.conftest import beyond_reach
 
 
@@ -134,6 +135,40 @@ def test_moveit_commander_targets_in_plan_and_go(arm):
             arm.shift_pose_target(axis, 0.1)
 
 
+def test_joint_value_targets_in_moveit_commanders_forms(arm):
+    """A joint's name and value; a Pose (its collision-free IK solution nearest the current
+    joint values); get_joint_value_target gives the goal's values."""
+    arm.set_joint_value_target("joint_2", 0.3)
+    assert np.array_equal(arm.get_joint_value_target(), [0, 0.3, 0, 0, 0, 0])
+    assert arm.go()
+    pose = Pose.from_rpy(0.25, 0.1, 0.45, 0, math.pi / 4, 0)  # two free IK solutions
+    arm.set_joint_value_target(pose)
+    q = arm.get_joint_value_target()
+    checker = arm.scene.checker(arm.group)
+    assert not checker.check_exact(q[None])[0]
+    T = Pose.from_matrix(arm.scene.T_world_root @ fk(arm.group, q, "tcp"))
+    assert T.isclose(pose, atol=1e-6, rot_atol=1e-6)
+    from robocell.kinematics import solve_ik
+
+    base = arm.scene.link_pose(arm.group.base_link).inverse()
+    others = solve_ik(arm.group, base * pose, tip_link="tcp", checker=checker).solutions
+    current = arm.get_current_joint_values()
+    assert len(others) > 1
+    assert np.linalg.norm(q - current) == pytest.approx(
+        min(np.linalg.norm(others - current, axis=1)), abs=1e-6
+    )
+    assert arm.go() and np.allclose(arm.get_current_joint_values(), q)
+    arm.set_joint_value_target(pose, "tool0")  # the same pose for another link
+    assert not np.allclose(arm.get_joint_value_target(), q)
+    arm.set_pose_target(pose)
+    with pytest.raises(PlanningError, match="not a joint goal: a PoseGoal"):
+        arm.get_joint_value_target()
+    with pytest.raises(PlanningError, match="second argument"):
+        arm.set_joint_value_target([0] * 6, 0.3)
+    with pytest.raises(PlanningError, match="no solution"):
+        arm.set_joint_value_target(Pose([1.5, 0, 0.3]))
+
+
 def test_goal_tolerances_apply_when_planning_as_in_moveit(arm):
     """A tolerance set after the target applies to it (MoveIt builds the goal's constraints
     when it plans): a pose 3 mm beyond reach is refused, then reached within 1 cm."""
@@ -241,6 +276,15 @@ GROUP_CALLS = {
     "get_current_pose": (lambda g, v: g.get_current_pose(v), NAMES),
     "get_named_target_values": (lambda g, v: g.get_named_target_values(v), [None, *NAMES]),
     "set_joint_value_target": (lambda g, v: g.set_joint_value_target({"joint_1": v}), NUMBERS),
+    "set_joint_value_target (name, value)": (
+        lambda g, v: g.set_joint_value_target("joint_1", v),
+        NUMBERS,
+    ),
+    "set_joint_value_target (name)": (lambda g, v: g.set_joint_value_target(v, 0.1), NAMES),
+    "set_joint_value_target (pose link)": (
+        lambda g, v: g.set_joint_value_target(Pose([0.3, 0, 0.3]), v),
+        NAMES,
+    ),
     "set_position_target": (lambda g, v: g.set_position_target(v), VECTORS),
     "compute_cartesian_path (waypoints)": (lambda g, v: g.compute_cartesian_path(v), NUMBERS),
     "compute_cartesian_path (eef_step)": (

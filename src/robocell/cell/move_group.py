@@ -275,9 +275,31 @@ class MoveGroup:
         """A joint goal by name: joint values remembered by that name, or the SRDF's state."""
         self._goal = JointGoal(self._named(name), self.joint_tolerance)
 
-    def set_joint_value_target(self, q: ArrayLike | dict[str, float]) -> None:
-        """A joint goal: a vector in the group's order, or {joint name: value} (other joints
-        keep their current values)."""
+    def set_joint_value_target(
+        self, q: ArrayLike | dict[str, float] | str | Pose, value: object = None
+    ) -> None:
+        """A joint goal: a vector in the group's order, {joint name: value} or a joint's name
+        and its value (the other joints keep their current values), or a Pose of the
+        end-effector link (or of the link named by ``value``), world frame, whose
+        collision-free IK solution nearest the current joint values becomes the goal (one
+        within the goal tolerances where none meets the pose exactly), as moveit_commander's
+        forms of this call."""
+        if isinstance(q, Pose):
+            link = self._link(value)  # type: ignore[arg-type]
+            self.scene.robot.link_index(link, "pose target link")
+            goal = PoseGoal(link, q, self.position_tolerance, self.orientation_tolerance)
+            current = self.get_current_joint_values()
+            with self._lock:
+                checker = self.scene.checker(self.group)
+                solutions = self.planner.goal_configurations(self.group, goal, current, checker)
+            self._goal = JointGoal(solutions[0], self.joint_tolerance)
+            return
+        if isinstance(q, str):
+            q = {q: value}  # type: ignore[dict-item]
+        elif value is not None:
+            raise PlanningError(
+                f"a second argument goes with a joint's name or a Pose, not with {q!r}"
+            )
         if isinstance(q, dict):
             target = self.get_current_joint_values()
             for name, v in q.items():
@@ -295,6 +317,16 @@ class MoveGroup:
         if bad:
             raise PlanningError(f"joint target outside the limits: {'; '.join(bad)}")
         self._goal = JointGoal(target, self.joint_tolerance)
+
+    def get_joint_value_target(self) -> NDArray[np.float64]:
+        """The joint values of the joint goal set last (a named target, joint values, a
+        Pose through :meth:`set_joint_value_target`)."""
+        if not isinstance(self._goal, JointGoal):
+            raise PlanningError(
+                "the target is not a joint goal: "
+                + ("none is set" if self._goal is None else f"a {type(self._goal).__name__}")
+            )
+        return self._goal.positions.copy()
 
     def set_pose_target(self, pose: Pose | ArrayLike, link: str | None = None) -> None:
         """A pose goal for ``link`` (default: the end-effector link), world frame."""
