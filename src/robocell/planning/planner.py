@@ -60,8 +60,8 @@ NATIVE_PLANNERS = ("", "rrtconnect", "robocell")
 FINAL_CHUNK = 32
 # waypoints a detour tries, at radii from 0.02 to 0.4 rad (_radii)
 DETOUR_TRIES = 24
-# a joint goal in collision: states drawn within its tolerance, and the nearest free ones kept
-GOAL_DRAWS, GOAL_NEAR = 256, 4
+# a joint goal in collision: the free states within its tolerance nearest it that are kept
+GOAL_NEAR = 4
 CheckOutputs = tuple[NDArray, ...]  # _kernels.validate_path's
 
 
@@ -331,7 +331,9 @@ class Planner:
             if bad:
                 raise PlanningError(f"joint goal outside the limits: {'; '.join(bad)}")
             if collisions and checker.collides(q):
-                near = self._free_near(group, q, goal.tolerance, checker)
+                # MoveIt's joint constraints: any state within the tolerance meets the goal
+                rng = np.random.default_rng(0)
+                near = _free_around(group, q, checker, rng, goal.tolerance, GOAL_NEAR)
                 if len(near):
                     return near
                 raise PlanningError(
@@ -420,23 +422,6 @@ class Planner:
             f"unknown goal type {type(goal).__name__}; use JointGoal, PoseGoal or PositionGoal"
         )
 
-    def _free_near(
-        self,
-        group: JointGroup,
-        q: NDArray[np.float64],
-        tolerance: float,
-        checker: CollisionChecker,
-    ) -> NDArray[np.float64]:
-        """Free states within ``tolerance`` of the joint goal ``q`` on every joint (MoveIt's
-        joint constraints: any of them meets the goal), nearest ``q`` first; (0, dof) when
-        none of ``GOAL_DRAWS`` draws in that box (within the limits) is free."""
-        lo = np.maximum(q - tolerance, group.lower)
-        hi = np.minimum(q + tolerance, group.upper)
-        qs = np.random.default_rng(0).uniform(lo, hi, size=(GOAL_DRAWS, group.dof))
-        free = qs[~checker.check(qs)]
-        order = np.argsort(np.abs(free - q).max(axis=1), kind="stable")
-        return free[order[:GOAL_NEAR]]
-
     def _approximate_ik(
         self,
         group: JointGroup,
@@ -510,13 +495,9 @@ class Planner:
     ) -> NDArray[np.float64]:
         """The nearest collision-free state found around q (radii growing to
         ``fix_start_radius``), as MoveIt's FixStartStateCollision adapter does."""
-        for radius in np.geomspace(0.005, self.config.fix_start_radius, 8):
-            cand = np.clip(
-                q + rng.uniform(-radius, radius, (128, group.dof)), group.lower, group.upper
-            )
-            free = cand[~checker.check(cand)]
-            if len(free):
-                return free[np.argmin(np.linalg.norm(free - q, axis=1))]
+        free = _free_around(group, q, checker, rng, self.config.fix_start_radius, 1)
+        if len(free):
+            return free[0]
         raise PlanningError(
             f"start state in collision ({_pairs(checker, q)}) and no valid state within "
             f"{self.config.fix_start_radius} rad"
@@ -913,6 +894,26 @@ def planner_name(planner_id: object) -> str:
             f'planner id must be a name (a string, "" for the native planner), got {planner_id!r}'
         )
     return planner_id
+
+
+def _free_around(
+    group: JointGroup,
+    q: NDArray[np.float64],
+    checker: CollisionChecker,
+    rng: np.random.Generator,
+    radius: float,
+    keep: int,
+) -> NDArray[np.float64]:
+    """Up to ``keep`` collision-free states around ``q``, nearest first: 128 drawn within the
+    limits in each of 8 boxes whose half-width grows to ``radius`` [rad or m] on every joint,
+    from the first box that has one; (0, dof) when none has."""
+    for r in np.geomspace(min(0.005, radius), radius, 8):
+        cand = np.clip(q + rng.uniform(-r, r, (128, group.dof)), group.lower, group.upper)
+        free = cand[~checker.check(cand)]
+        if len(free):
+            order = np.argsort(np.linalg.norm(free - q, axis=1), kind="stable")
+            return free[order[:keep]]
+    return np.empty((0, group.dof))
 
 
 def _pairs(checker: CollisionChecker, q: NDArray[np.float64]) -> str:
