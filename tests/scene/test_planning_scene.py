@@ -46,6 +46,9 @@ def test_add_move_remove(scene):
             "unknown object 'tabel'; known: can, table",
         ),
         (lambda s: s.remove_object("cann"), SceneError, "known: can, table"),
+        (lambda s: s.remove_world_object(["can"]), SceneError, "unknown object"),
+        (lambda s: s.remove_attached_object(name="can"), SceneError, "not attached"),
+        (lambda s: s.remove_attached_object("palm"), ModelError, "unknown link 'palm'"),
         (lambda s: s.detach_object("can"), SceneError, "not attached; attached: \\(none\\)"),
         (
             lambda s: s.attach_object("can", "gripper_palm"),
@@ -103,6 +106,30 @@ def test_attach_keeps_the_world_pose_and_detach_puts_it_back(irb120):
     assert np.allclose(obj.pose.matrix(), fk(arm, q2, "tcp"), atol=1e-12)
     with pytest.raises(SceneError, match="is not attached"):
         scene.detach_object("part")
+
+
+def test_planning_scene_interface_calls_as_moveit_scripts_use_them(scene, irb120):
+    """remove_world_object: idempotent by name (a script's clean-up before adding), all for
+    None, a held object refused; remove_attached_object: held objects back into the world,
+    by name, by link or all; get_known_object_names: world and held ids."""
+    assert not scene.remove_world_object("coke_can")  # not there: nothing to do
+    scene.add_box("coke_can", Pose((0.3, -0.2, 0.2)), (0.05, 0.05, 0.1))
+    assert scene.remove_world_object("coke_can") and "coke_can" not in scene.object_ids
+    scene.add_box("part", Pose((0.3, 0.0, 0.4)), (0.02, 0.02, 0.02))
+    scene.add_box("other", Pose((0.3, 0.1, 0.4)), (0.02, 0.02, 0.02))
+    scene.attach_object("part", "tool0")
+    scene.attach_object("other", "link_6")
+    assert scene.get_known_object_names() == ["can", "other", "part", "table"]
+    with pytest.raises(SceneError, match="held by link 'tool0'; detach it first"):
+        scene.remove_world_object("part")
+    assert not scene.remove_attached_object("link_5")
+    assert scene.remove_attached_object("tool0")  # "part", not "other"
+    assert sorted(scene.attached_objects) == ["other"] and "part" in scene.object_ids
+    assert np.allclose(scene.get_object("part").pose.position, [0.3, 0.0, 0.4])
+    assert scene.remove_attached_object(name="other") and scene.attached_objects == {}
+    assert not scene.remove_attached_object()
+    assert scene.remove_world_object() and scene.object_ids == []
+    assert not scene.remove_world_object()
 
 
 def test_held_object_collides_with_world_and_robot(irb120):

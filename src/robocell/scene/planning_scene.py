@@ -207,6 +207,46 @@ class PlanningScene:
         self.acm.remove(id)
         self._changed()
 
+    def remove_world_object(self, name: str | None = None) -> bool:
+        """MoveIt's PlanningSceneInterface call: remove world object ``name`` if the world
+        has it (the idempotent clean-up MoveIt scripts start with), or every world object
+        for None; whether anything was removed. A held object is refused as by
+        :meth:`remove_object`."""
+        if name is None:
+            removed = bool(self._world)
+            for id in list(self._world):
+                self.remove_object(id)
+            return removed
+        if not isinstance(name, str):
+            raise SceneError(unknown("object", name, self._world))
+        if name not in self._world and name not in self._attached:
+            return False
+        self.remove_object(name)
+        return True
+
+    def remove_attached_object(self, link: str | None = None, name: str | None = None) -> bool:
+        """MoveIt's PlanningSceneInterface call: detach the held object ``name`` (None: every
+        object held by ``link``, or every held object), each back into the world where it is
+        now, as MoveIt does; whether anything was detached."""
+        if link is not None:
+            self.robot.link_index(link, "remove_attached_object link")
+        if name is not None and (not isinstance(name, str) or name not in self._attached):
+            raise SceneError(
+                f"object {name!r} is not attached; attached: {choices(self._attached)}"
+            )
+        ids = [
+            id
+            for id, held in self._attached.items()
+            if (name is None or id == name) and (link is None or held.link == link)
+        ]
+        for id in ids:
+            self.detach_object(id)
+        return bool(ids)
+
+    def get_known_object_names(self) -> list[str]:
+        """Ids of the world objects and the held ones (MoveIt's PlanningSceneInterface)."""
+        return sorted([*self._world, *self._attached])
+
     def clear(self) -> None:
         """Remove every world object and held object."""
         for id in [*self._world, *self._attached]:
