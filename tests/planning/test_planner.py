@@ -414,6 +414,26 @@ def test_ompl_simplifies_as_moveit_does(walled):
     assert simplified.path_length < raw.path_length
 
 
+def test_planner_ids_name_ompls_planners_by_their_own_names(walled, monkeypatch):
+    """ "RRTConnect" is OMPL's class (as the errors list it), not the native planner, whose
+    ids are "", "rrtconnect" and "robocell" (any case); MoveIt's names go to OMPL too."""
+    pytest.importorskip("ompl")
+    from robocell.planning import ompl_backend
+
+    asked = []
+    plan = ompl_backend.plan
+    monkeypatch.setattr(
+        ompl_backend, "plan", lambda name, *a, **k: asked.append(name) or plan(name, *a, **k)
+    )
+    planner = Planner(walled)
+    for pid in ("RRTConnect", "RRTConnectkConfigDefault", "", "rrtconnect", "ROBOCELL"):
+        result = planner.plan(
+            MotionPlanRequest("arm", JointGoal(GOAL), start=START, planner_id=pid)
+        )
+        assert result.success
+    assert asked == ["RRTConnect", "RRTConnectkConfigDefault"]
+
+
 def test_ompl_state_check_must_be_known(walled):
     pytest.importorskip("ompl")
     request = MotionPlanRequest(

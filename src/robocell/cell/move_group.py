@@ -259,8 +259,9 @@ class MoveGroup:
         return self.orientation_tolerance
 
     def set_planner_id(self, planner_id: str) -> None:
-        """The planner by MoveIt's name (``RRTConnectkConfigDefault``, …; an OMPL planner
-        needs ``pip install ompl``), or "" for the native planner (checked when planning)."""
+        """An OMPL planner by MoveIt's name (``RRTConnectkConfigDefault``, …) or OMPL's
+        (``RRTConnect``, …; needs ``pip install ompl``), or "" for the native planner
+        (checked when planning)."""
         self.planner_id = planner_name(planner_id)
 
     # ------------------------------------------------------------------ targets

@@ -18,6 +18,7 @@ from robocell.errors import PlanningError, choices, number, vector, whole
 from robocell.geometry.pose import Pose
 from robocell.kinematics.ik import IKResult, NumericIK, NumericIKConfig, solve_ik
 from robocell.planning import _kernels as PK
+from robocell.planning import ompl_backend
 from robocell.planning.request import (
     Goal,
     JointGoal,
@@ -172,7 +173,7 @@ class Planner:
         _check_request(request)
         checker = self.scene.checker(group)
         planner_name = request.planner_id.strip()
-        native = planner_name.lower() in NATIVE_PLANNERS
+        native = is_native(planner_name)
         if cfg.compiled and native:
             warm_up(checker)
         threads = cfg.threads if cfg.threads is not None else not threads_rested()
@@ -523,7 +524,7 @@ class Planner:
         path). ``check_ends``: the compiled search checks the start and the goals first
         (:func:`rrt_connect_compiled`); if one is not FREE, nothing is searched (None)."""
         cfg = self.config
-        if planner_name.lower() in NATIVE_PLANNERS:
+        if is_native(planner_name):
             lo, hi, step = group.lower, group.upper, cfg.step
             if cfg.compiled:
                 # most of the budget to the compiled search; what is left to the Python one,
@@ -547,8 +548,6 @@ class Planner:
                 if path is not None or edges.stats.blocked_ends or time.perf_counter() >= deadline:
                     return path, path is not None and todo is not None
             return rrt_connect(edges, start, goals, lo, hi, rng, deadline, step), False
-        from robocell.planning import ompl_backend
-
         if not ompl_backend.is_ompl_name(planner_name):
             raise PlanningError(
                 f"unknown planner {planner_name!r}; known: rrtconnect (native, default) or an "
@@ -884,6 +883,13 @@ def planning_attempts(n: object) -> int:
     if attempts < 1:
         raise PlanningError(f"number of planning attempts must be >= 1, got {n!r}")
     return attempts
+
+
+def is_native(planner_id: str) -> bool:
+    """Whether ``planner_id`` names the native planner: "", "rrtconnect" or "robocell" in
+    any case, but not an OMPL planner's own name ("RRTConnect" is OMPL's class, as in the
+    list of OMPL planners the errors give)."""
+    return planner_id.lower() in NATIVE_PLANNERS and not ompl_backend.is_ompl_name(planner_id)
 
 
 def planner_name(planner_id: object) -> str:
