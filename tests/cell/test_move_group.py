@@ -195,10 +195,17 @@ def test_random_targets_are_free_and_follow_the_seed(arm):
     assert plan.success and not checker.check_exact(plan.path[-1:])[0]
 
 
-def test_jacobian_matches_finite_differences(arm):
+@pytest.mark.parametrize("mount", [Pose(), Pose.from_rpy(0.3, -0.2, 0.1, 0.2, -0.1, 1.0)])
+def test_jacobian_matches_finite_differences(irb120, mount):
     """Columns: the end-effector link's origin (or a point on it) moving, and its frame
-    turning, in the robot's root frame, per joint."""
-    from robocell.kinematics import fk
+    turning, along the world's axes (the poses' frame), per joint; the robot mounted at the
+    world's origin or turned and moved off it."""
+    arm = MoveGroup(PlanningScene(irb120, robot_pose=mount), "arm", time_scale=0)
+    arm.set_end_effector_link("tcp")
+    W = mount.matrix()
+
+    def world_fk(q, link):
+        return W @ fk(arm.group, q, link)
 
     q = np.array([0.3, 0.2, -0.4, 0.5, 0.6, -0.2])
     point = np.array([0.0, 0.02, 0.1])
@@ -208,11 +215,11 @@ def test_jacobian_matches_finite_differences(arm):
     for j in range(6):
         dq = np.zeros(6)
         dq[j] = h
-        Ta, Tb = fk(arm.group, q - dq, "tcp"), fk(arm.group, q + dq, "tcp")
+        Ta, Tb = world_fk(q - dq, "tcp"), world_fk(q + dq, "tcp")
         assert np.allclose((Tb[:3, 3] - Ta[:3, 3]) / (2 * h), J[:3, j], atol=1e-6)
         pa, pb = Ta[:3, :3] @ point + Ta[:3, 3], Tb[:3, :3] @ point + Tb[:3, 3]
         assert np.allclose((pb - pa) / (2 * h), Jp[:3, j], atol=1e-6)
-        dR = (Tb[:3, :3] - Ta[:3, :3]) / (2 * h) @ fk(arm.group, q, "tcp")[:3, :3].T
+        dR = (Tb[:3, :3] - Ta[:3, :3]) / (2 * h) @ world_fk(q, "tcp")[:3, :3].T
         assert np.allclose([dR[2, 1], dR[0, 2], dR[1, 0]], J[3:, j], atol=1e-6)
     assert np.array_equal(J[3:], Jp[3:])
     with pytest.raises(RobocellError, match="reference point"):

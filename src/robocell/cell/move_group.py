@@ -192,20 +192,22 @@ class MoveGroup:
         self, joint_values: ArrayLike, reference_point: ArrayLike | None = None
     ) -> NDArray[np.float64]:
         """The geometric Jacobian (6, dof) of the end-effector link at ``joint_values``: rows
-        (vx, vy, vz, wx, wy, wz) in the robot's root frame (MoveIt's model frame), of the
-        link's origin or of ``reference_point`` [m], a point in the link's frame."""
+        (vx, vy, vz, wx, wy, wz) along the axes of the planning frame (the world's, where the
+        poses are), of the link's origin or of ``reference_point`` [m], a point in the link's
+        frame."""
         q = self.group.as_joint_vector(joint_values, "joint values")
         link = self.end_effector_link
         with self._lock:
             base = self.scene.state.positions.copy()
-        J = jacobian(self.group, q, link, base)
+        J = jacobian(self.group, q, link, base)  # the robot's root frame
         if reference_point is not None:
             p = vector(reference_point, 3, "reference point", PlanningError)
             r = fk(self.group, q, link, base)[:3, :3] @ p  # the point from the origin, root frame
             # v_point = v_origin + w x r = v_origin - [r]x w
             rx = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
             J[:3] -= rx @ J[3:]
-        return J
+        R = self.scene.T_world_root[:3, :3]
+        return np.vstack([R @ J[:3], R @ J[3:]])
 
     def set_end_effector_link(self, link: str) -> None:
         self.scene.robot.link_index(link, "end-effector link")
