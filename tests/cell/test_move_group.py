@@ -10,6 +10,7 @@ from robocell import PlanningScene, Pose
 from robocell.cell import MoveGroup
 from robocell.errors import ExecutionError, ModelError, PlanningError, RobocellError
 from robocell.kinematics import fk
+from robocell.trajectory import stationary
 from tests.conftest import beyond_reach
 
 
@@ -226,6 +227,48 @@ def test_jacobian_matches_finite_differences(irb120, mount):
         arm.get_jacobian_matrix(q, [0, 1])
 
 
+def test_retime_trajectory_keeps_the_motion_and_meets_the_new_limits(arm):
+    """A plan's path timed again time-optimally (as the planner times it at those factors);
+    a Cartesian trajectory run uniformly slower: the same states at scaled times, a limit
+    reached, none passed."""
+    from scipy.spatial import cKDTree
+
+    from robocell.trajectory import BlendedPath, time_optimal
+
+    arm.set_joint_value_target([1.0, 0.2, 0.1, 0.5, 0.5, 0.5])
+    plan = arm.plan()
+    slow = arm.retime_trajectory(plan, 0.3, 0.2)
+    again = time_optimal(
+        arm.group, BlendedPath(plan.path, plan.stats["corner_deviation"]), 0.3, 0.2
+    )
+    assert slow.duration == pytest.approx(again.duration, rel=1e-9)
+    assert slow.duration > 2 * plan.trajectory.duration
+    assert slow.limit_violations(arm.group, 0.3, 0.2) == []
+    assert np.allclose(slow.positions[[0, -1]], plan.trajectory.positions[[0, -1]], atol=1e-12)
+    dense = plan.trajectory.sample(np.linspace(0, plan.trajectory.duration, 4000)).positions
+    states = slow.sample(np.linspace(0, slow.duration, 500)).positions
+    assert cKDTree(dense).query(states)[0].max() < 1e-3  # on the same path
+
+    assert arm.execute(plan)
+    p0 = arm.get_current_pose()
+    cart, fraction = arm.compute_cartesian_path([Pose(p0.position + [0, 0.1, 0], p0.orientation)])
+    assert fraction == 1.0
+    for vs, as_ in ((0.2, 0.2), (0.2, 1.0), (1.0, 0.1)):
+        traj = arm.retime_trajectory(cart, vs, as_)
+        k = traj.duration / cart.duration
+        t = np.linspace(0, cart.duration, 300)
+        assert np.allclose(traj.sample(t * k).positions, cart.sample(t).positions, atol=1e-9)
+        assert traj.limit_violations(arm.group, vs, as_) == []
+        s = traj.sample(np.linspace(0, traj.duration, 2000))
+        v = np.abs(s.velocities).max(axis=0) / (arm.group.velocity * vs)
+        a = np.abs(s.accelerations).max(axis=0) / (arm.group.acceleration * as_)
+        assert max(v.max(), a.max()) > 0.98  # a limit is reached: no slower than needed
+    with pytest.raises(PlanningError, match="scaling factor"):
+        arm.retime_trajectory(plan, 0.0)
+    with pytest.raises(ExecutionError, match="MotionPlan, CartesianPlan or JointTrajectory"):
+        arm.retime_trajectory("plan")
+
+
 def test_attach_detach(arm):
     arm.scene.add_box("part", Pose(arm.get_current_pose().position), [0.02, 0.02, 0.02])
     held = arm.attach_object("part")
@@ -322,6 +365,11 @@ GROUP_CALLS = {
     "get_jacobian_matrix (point)": (
         lambda g, v: g.get_jacobian_matrix(np.zeros(6), v),
         ["abc", [1, 2], {"x": 1.0}, [0.3, float("nan"), 0.3], 3.5],
+    ),
+    "retime_trajectory": (lambda g, v: g.retime_trajectory(v), [None, *NAMES]),
+    "retime_trajectory (factor)": (
+        lambda g, v: g.retime_trajectory(stationary(g.group, np.zeros(6)), 1.0, v),
+        NUMBERS,
     ),
     "detach_object": (lambda g, v: g.detach_object(v), [None, *NAMES]),
     "attach_object": (lambda g, v: g.attach_object(v), [None, *NAMES]),

@@ -5,7 +5,15 @@ import pytest
 
 from robocell.errors import PlanningError, RobocellWarning
 from robocell.execution.controller import stopping_trajectory
-from robocell.trajectory import BlendedPath, JointTrajectory, jerk_limited, ptp, time_optimal
+from robocell.trajectory import (
+    BlendedPath,
+    JointTrajectory,
+    jerk_limited,
+    ptp,
+    retimed,
+    stationary,
+    time_optimal,
+)
 from robocell.trajectory import _kernels as TK
 from robocell.trajectory.path import SplinePath, SubPath
 from robocell.trajectory.timing import DEFAULT_LIMITS, _limits, joint_limits
@@ -199,6 +207,18 @@ def test_waypoints_outside_the_limits_or_a_negative_deviation_are_refused(arm):
     assert time_optimal(arm, np.array([q0, edge])).limit_violations(arm) == []
     with pytest.raises(PlanningError, match="max_deviation"):
         time_optimal(arm, np.array([q0, q1, q0]), max_deviation=-0.1)
+
+
+def test_retimed_runs_a_trajectory_uniformly_to_the_scaled_limits(arm, path, ur5e):
+    traj = time_optimal(arm, path, 0.5, 0.5)  # a time-optimal trajectory at half the limits
+    full = retimed(arm, traj, 1.0, 1.0)  # faster, to the full limits
+    assert full.duration < traj.duration and full.limit_violations(arm) == []
+    k = traj.duration / full.duration
+    t = np.linspace(0, full.duration, 200)
+    assert np.allclose(full.sample(t).positions, traj.sample(t * k).positions, atol=1e-9)
+    assert retimed(arm, stationary(arm, path[0])).duration == 0.0
+    with pytest.raises(PlanningError, match="not those of group 'manipulator'"):
+        retimed(ur5e.group("manipulator"), traj)
 
 
 def test_rounded_corners_are_faster_than_stops(arm, path):

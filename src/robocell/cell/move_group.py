@@ -47,7 +47,8 @@ from robocell.planning.request import (
 )
 from robocell.scene.objects import AttachedObject, CollisionObject
 from robocell.scene.planning_scene import PlanningScene
-from robocell.trajectory.timing import time_optimal
+from robocell.trajectory.path import BlendedPath
+from robocell.trajectory.timing import retimed, time_optimal
 from robocell.trajectory.trajectory import JointTrajectory, stationary
 
 
@@ -475,6 +476,25 @@ class MoveGroup:
     @property
     def last_execution(self) -> ExecutionHandle | None:
         return self._handle
+
+    def retime_trajectory(
+        self,
+        plan: MotionPlan | CartesianPlan | JointTrajectory,
+        velocity_scaling_factor: float = 1.0,
+        acceleration_scaling_factor: float = 1.0,
+    ) -> JointTrajectory:
+        """``plan``'s motion timed again for other scaling factors (MoveIt's call, without
+        its reference state: the motion says where it starts). A plan's path is timed
+        time-optimally again, its corners rounded as before; a trajectory whose path is not
+        known otherwise (a Cartesian plan's, or any) runs uniformly slower or faster until a
+        joint reaches a scaled limit (:func:`robocell.trajectory.retimed`)."""
+        vs = _factor(velocity_scaling_factor, "velocity scaling factor")
+        as_ = _factor(acceleration_scaling_factor, "acceleration scaling factor")
+        traj = _trajectory_of(plan)  # refuses a failed plan or something else
+        if isinstance(plan, MotionPlan):
+            path = BlendedPath(plan.path, plan.stats.get("corner_deviation", 0.0))
+            return time_optimal(self.group, path, vs, as_)
+        return retimed(self.group, traj, vs, as_)
 
     # ------------------------------------------------------------------ Cartesian
     def compute_cartesian_path(

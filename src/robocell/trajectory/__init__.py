@@ -8,6 +8,7 @@ from robocell.trajectory.timing import (
     along_line,
     jerk_limited,
     ptp,
+    retimed,
     time_optimal,
     trapezoid_profile,
 )
@@ -23,6 +24,7 @@ __all__ = [
     "TrajectorySample",
     "jerk_limited",
     "ptp",
+    "retimed",
     "stationary",
     "time_optimal",
     "trapezoid_profile",

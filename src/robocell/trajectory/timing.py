@@ -73,16 +73,52 @@ def fit_to_limits(
     and between them (sampled four times per knot interval)."""
     if len(traj) < 2:
         return traj
+    k = max(_peak_ratio(traj, v_max, a_max), 1.0)
+    if k > 1.0:
+        traj = traj.scaled(k * (1.0 + 1e-9))
+        traj.info["slowed_by"] = k
+    return traj
+
+
+def _peak_ratio(
+    traj: JointTrajectory, v_max: NDArray[np.float64], a_max: NDArray[np.float64]
+) -> float:
+    """How many times slower ``traj`` must run to keep within ``v_max`` and ``a_max`` (< 1:
+    it may run faster), from its knots and four samples per knot interval."""
     t = traj.times
     dense = np.concatenate([t, (t[:-1, None] + np.diff(t)[:, None] * [0.25, 0.5, 0.75]).ravel()])
     smp = traj.sample(dense)
     rv = float(np.max(np.abs(smp.velocities) / v_max))
     ra = float(np.max(np.abs(smp.accelerations) / a_max))
-    k = max(rv, math.sqrt(ra), 1.0)
-    if k > 1.0:
-        traj = traj.scaled(k * (1.0 + 1e-9))
-        traj.info["slowed_by"] = k
-    return traj
+    return max(rv, math.sqrt(ra))
+
+
+def retimed(
+    group: JointGroup,
+    traj: JointTrajectory,
+    velocity_scaling: float = 1.0,
+    acceleration_scaling: float = 1.0,
+) -> JointTrajectory:
+    """``traj`` run uniformly slower or faster until a joint reaches the group's velocity or
+    acceleration limit scaled by the factors (MoveIt's ``retime_trajectory`` on a trajectory
+    whose path is not known otherwise): the same positions in the same order, at times
+    scaled by one factor (velocities by its inverse, accelerations by its inverse square).
+    Time-optimal again where ``traj`` was time-optimal and the two factors keep the ratio
+    they had (velocity², acceleration)."""
+    if list(traj.joint_names) != list(group.joint_names):
+        raise PlanningError(
+            f"trajectory joints {traj.joint_names} are not those of group {group.name!r}: "
+            f"{group.joint_names}"
+        )
+    v_max, a_max = _limits(group, velocity_scaling, acceleration_scaling)
+    if len(traj) < 2:
+        return traj
+    k = _peak_ratio(traj, v_max, a_max)
+    if k < 1e-12:  # it does not move
+        return traj
+    out = traj.scaled(k * (1.0 + 1e-9))
+    out.info["scaled_by"] = k
+    return out
 
 
 def time_optimal(
