@@ -255,6 +255,21 @@ def test_errors(walled):
             planner.plan(MotionPlanRequest("arm", JointGoal(GOAL), start=START, **kwargs))
     with pytest.raises(PlanningError, match="position goal"):
         planner.plan(MotionPlanRequest("arm", PositionGoal("tcp", "abc"), start=START))
+    # goal tolerances of the wrong kind (they decide which states meet a goal)
+    inside = np.array([0, 0.6, 0.3, 0, 0, 0])  # in the wall
+    for goal, words in (
+        (JointGoal(GOAL, -0.1), "joint goal tolerance .* >= 0"),
+        (JointGoal(GOAL, "abc"), "joint goal tolerance .* number"),
+        (JointGoal(inside, 0.0), "in collision: .*wall.*tolerance"),
+        (PoseGoal("tcp", Pose([0.3, 0, 0.3]), np.nan), "position tolerance .* finite"),
+        (PoseGoal("tcp", Pose([0.3, 0, 0.3]), 1e-4, -1.0), "orientation tolerance .* >= 0"),
+        (PositionGoal("tcp", [0.3, 0, 0.3], None), "position tolerance .* number"),
+    ):
+        with pytest.raises(PlanningError, match=words):
+            planner.plan(MotionPlanRequest("arm", goal, start=START))
+    p = fk(walled.robot.group("arm"), START, "tcp")[:3, 3]  # a zero tolerance: met to 1e-9
+    plan = planner.plan(MotionPlanRequest("arm", PositionGoal("tcp", p, 0.0), start=GOAL))
+    assert np.linalg.norm(fk(walled.robot.group("arm"), plan.path[-1], "tcp")[:3, 3] - p) < 1e-8
     with pytest.raises(ModelError, match="known: arm"):
         planner.plan(MotionPlanRequest("arms", JointGoal(GOAL)))
     with pytest.raises(PlanningError, match="joint_1"):

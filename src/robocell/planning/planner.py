@@ -327,6 +327,7 @@ class Planner:
         Raises :class:`PlanningError` when there are none, saying why. ``collisions=False``:
         a joint goal is not checked for collisions (the caller does it)."""
         if isinstance(goal, JointGoal):
+            tolerance = _tolerance(goal.tolerance, "joint goal tolerance [rad]")
             q = group.as_joint_vector(goal.positions, "joint goal")
             bad = group.limit_violations(q)
             if bad:
@@ -334,12 +335,12 @@ class Planner:
             if collisions and checker.collides(q):
                 # MoveIt's joint constraints: any state within the tolerance meets the goal
                 rng = np.random.default_rng(0)
-                near = _free_around(group, q, checker, rng, goal.tolerance, GOAL_NEAR)
+                near = _free_around(group, q, checker, rng, tolerance, GOAL_NEAR)
                 if len(near):
                     return near
                 raise PlanningError(
                     f"joint goal is in collision: {_pairs(checker, q)}; no state within its "
-                    f"tolerance (±{goal.tolerance:g} rad) is free"
+                    f"tolerance (±{tolerance:g} rad) is free"
                 )
             return q[None, :]
         robot = self.scene.robot
@@ -350,6 +351,10 @@ class Planner:
         if isinstance(goal, PoseGoal):
             if not isinstance(goal.pose, Pose):
                 raise PlanningError(f"a pose goal needs a Pose, got {type(goal.pose).__name__}")
+            position_tolerance = _tolerance(goal.position_tolerance, "position tolerance [m]")
+            orientation_tolerance = _tolerance(
+                goal.orientation_tolerance, "orientation tolerance [rad]"
+            )
             T = T_base_world @ goal.pose.matrix()
             res = solve_ik(
                 group,
@@ -376,19 +381,19 @@ class Planner:
                 return _unique(sols)
             if not res.success:
                 near = self._approximate_ik(
-                    group, goal.link, T, seed, checker, goal.position_tolerance,
-                    goal.orientation_tolerance,
-                )  # fmt: skip
+                    group, goal.link, T, seed, checker, position_tolerance, orientation_tolerance
+                )
                 if len(near):
                     return near
                 raise PlanningError(
                     f"pose goal for {goal.link!r} has no solution: {res.reason}; none within "
-                    f"its tolerance (±{goal.position_tolerance:g} m, "
-                    f"±{goal.orientation_tolerance:g} rad) either"
+                    f"its tolerance (±{position_tolerance:g} m, ±{orientation_tolerance:g} rad) "
+                    "either"
                 )
             return res.solutions
         if isinstance(goal, PositionGoal):
             p = vector(goal.position, 3, "a position goal", PlanningError)
+            tolerance = _tolerance(goal.tolerance, "position tolerance [m]")
             T = np.eye(4)
             T[:3, 3] = (T_base_world @ np.append(p, 1.0))[:3]
             key = (group.name, goal.link)
@@ -396,16 +401,16 @@ class Planner:
                 self._position_ik[key] = NumericIK(
                     group,
                     goal.link,
-                    NumericIKConfig(position_only=True, tol_pos=min(goal.tolerance, 1e-4)),
+                    NumericIKConfig(position_only=True, tol_pos=max(min(tolerance, 1e-4), 1e-9)),
                 )
             ik = self._position_ik[key]
             # this goal's tolerance, not the first one's that made the solver
-            ik.config = replace(ik.config, tol_pos=min(goal.tolerance, 1e-4))
+            ik.config = replace(ik.config, tol_pos=max(min(tolerance, 1e-4), 1e-9))
             ik.set_base_positions(self.scene.state.positions)
             gen = np.random.default_rng(0)
             res = ik.solve(T, seed, gen, self.config.ik_timeout, self.config.numeric_goal_solutions)
-            if not res.success and goal.tolerance > ik.config.tol_pos:
-                near = self._approximate_ik(group, goal.link, T, seed, None, goal.tolerance, None)
+            if not res.success and tolerance > ik.config.tol_pos:
+                near = self._approximate_ik(group, goal.link, T, seed, None, tolerance, None)
                 res = IKResult(near, res.solver, res.reason) if len(near) else res
             if not res.success:
                 raise PlanningError(
@@ -885,6 +890,14 @@ def planning_attempts(n: object) -> int:
     return attempts
 
 
+def _tolerance(value: object, what: str) -> float:
+    """A goal's tolerance: a number ≥ 0, or the PlanningError naming it."""
+    x = number(value, what, PlanningError)
+    if x < 0:
+        raise PlanningError(f"{what} must be >= 0, got {value!r}")
+    return x
+
+
 def is_native(planner_id: str) -> bool:
     """Whether ``planner_id`` names the native planner: "", "rrtconnect" or "robocell" in
     any case, but not an OMPL planner's own name ("RRTConnect" is OMPL's class, as in the
@@ -912,7 +925,9 @@ def _free_around(
 ) -> NDArray[np.float64]:
     """Up to ``keep`` collision-free states around ``q``, nearest first: 128 drawn within the
     limits in each of 8 boxes whose half-width grows to ``radius`` [rad or m] on every joint,
-    from the first box that has one; (0, dof) when none has."""
+    from the first box that has one; (0, dof) when none has (or ``radius`` is 0)."""
+    if radius <= 0.0:
+        return np.empty((0, group.dof))
     for r in np.geomspace(min(0.005, radius), radius, 8):
         cand = np.clip(q + rng.uniform(-r, r, (128, group.dof)), group.lower, group.upper)
         free = cand[~checker.check(cand)]
