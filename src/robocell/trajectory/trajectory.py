@@ -137,7 +137,8 @@ class JointTrajectory:
         )
 
     def scaled(self, k: float) -> JointTrajectory:
-        """The same path ``k`` ≥ 1 times slower: velocities / k, accelerations / k²."""
+        """The same path ``k`` times slower (k < 1: faster, which may leave the limits; the
+        execution checks them): velocities / k, accelerations / k²."""
         if not number(k, "time scale k", PlanningError) > 0:
             raise PlanningError(f"time scale k must be > 0, got {k!r}")
         return JointTrajectory(
