@@ -277,7 +277,7 @@ class MoveGroup:
 
     def set_named_target(self, name: str) -> None:
         """A joint goal by name: joint values remembered by that name, or the SRDF's state."""
-        self._goal = JointGoal(self._named(name), self.joint_tolerance)
+        self._goal = JointGoal(self._named(name))
 
     def set_joint_value_target(
         self, q: ArrayLike | dict[str, float] | str | Pose, value: object = None
@@ -296,7 +296,7 @@ class MoveGroup:
             with self._lock:
                 checker = self.scene.checker(self.group)
                 solutions = self.planner.goal_configurations(self.group, goal, current, checker)
-            self._goal = JointGoal(solutions[0], self.joint_tolerance)
+            self._goal = JointGoal(solutions[0])
             return
         if isinstance(q, str):
             q = {q: value}  # type: ignore[dict-item]
@@ -320,7 +320,7 @@ class MoveGroup:
         bad = self.group.limit_violations(target)
         if bad:
             raise PlanningError(f"joint target outside the limits: {'; '.join(bad)}")
-        self._goal = JointGoal(target, self.joint_tolerance)
+        self._goal = JointGoal(target)
 
     def get_joint_value_target(self) -> NDArray[np.float64]:
         """The joint values of the joint goal set last (a named target, joint values, a
@@ -337,14 +337,14 @@ class MoveGroup:
         p = pose if isinstance(pose, Pose) else Pose.from_any(pose)
         link = self._link(link)
         self.scene.robot.link_index(link, "pose target link")
-        self._goal = PoseGoal(link, p, self.position_tolerance, self.orientation_tolerance)
+        self._goal = PoseGoal(link, p)
 
     def set_position_target(self, xyz: ArrayLike, link: str | None = None) -> None:
         """A position-only goal for ``link`` (any orientation), world frame [m]."""
         p = vector(xyz, 3, "a position target", PlanningError)
         link = self._link(link)
         self.scene.robot.link_index(link, "position target link")
-        self._goal = PositionGoal(link, p, self.position_tolerance)
+        self._goal = PositionGoal(link, p)
 
     def shift_pose_target(self, axis: int, value: float, link: str | None = None) -> None:
         """A pose target: the current pose of ``link`` (default: the end-effector link) with
@@ -359,13 +359,13 @@ class MoveGroup:
         xyz_rpy = np.concatenate([pose.position, pose.rpy()])
         xyz_rpy[i] += d
         target = Pose(xyz_rpy[:3], pose.orientation) if i < 3 else Pose.from_rpy(*xyz_rpy)
-        self._goal = PoseGoal(link, target, self.position_tolerance, self.orientation_tolerance)
+        self._goal = PoseGoal(link, target)
 
     def set_random_target(self) -> None:
         """A joint goal drawn uniformly within the limits among the states free of collision
         in the scene as it is (MoveIt draws within the limits only, and its plan then fails
         on a colliding one); the draws follow the group's ``seed``."""
-        self._goal = JointGoal(self.get_random_joint_values(), self.joint_tolerance)
+        self._goal = JointGoal(self.get_random_joint_values())
 
     def get_random_joint_values(self) -> NDArray[np.float64]:
         """Joint values drawn uniformly within the limits, free of collision in the scene as
@@ -398,8 +398,9 @@ class MoveGroup:
             self.set_joint_value_target(target)  # type: ignore[arg-type]
 
     def _goal_now(self) -> Goal:
-        """The target set last, with the tolerances set now: MoveIt builds a request's goal
-        constraints when it plans, so a tolerance set after the target applies to it."""
+        """The target set last, with the tolerances set now (the stored target carries none
+        of its own): MoveIt builds a request's goal constraints when it plans, so a tolerance
+        set after the target applies to it."""
         goal = self._goal
         if goal is None:
             raise PlanningError(

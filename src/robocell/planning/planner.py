@@ -399,12 +399,10 @@ class Planner:
             key = (group.name, goal.link)
             if key not in self._position_ik:
                 self._position_ik[key] = NumericIK(
-                    group,
-                    goal.link,
-                    NumericIKConfig(position_only=True, tol_pos=max(min(tolerance, 1e-4), 1e-9)),
+                    group, goal.link, NumericIKConfig(position_only=True)
                 )
             ik = self._position_ik[key]
-            # this goal's tolerance, not the first one's that made the solver
+            # each goal's own tolerance (the solver is kept per link)
             ik.config = replace(ik.config, tol_pos=max(min(tolerance, 1e-4), 1e-9))
             ik.set_base_positions(self.scene.state.positions)
             gen = np.random.default_rng(0)
