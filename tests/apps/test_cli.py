@@ -60,6 +60,7 @@ def test_bench_planning_names_an_unknown_baseline(capsys):
         (["--robots", "panda", "--sets", "table_pick", "--limit", "-1"], "--limit"),
         (["--robots", "panda", "--sets", "table_pick", "--timeout", "0"], "--timeout"),
         (["--robots", "panda", "--sets", "table_pick", "--runs", "0"], "--runs"),
+        (["--robots", "panda", "--sets", "table_pick", "--busy", "-1"], "--busy"),
     ],
 )
 def test_bench_planning_names_an_unknown_robot_or_set_and_a_bad_limit(capsys, args, words):
@@ -81,6 +82,46 @@ def test_bench_planning_runs_plan_each_problem_with_seeds_of_their_own(tmp_path,
     seeds = sorted((r["problem"], r["seed"]) for r in row["results"])
     k0, k1 = sorted({k for k, _ in seeds})
     assert seeds == [(k0, 5 + k0), (k0, 1005 + k0), (k1, 5 + k1), (k1, 1005 + k1)]
+
+
+def test_bench_planning_busy_runs_beside_busy_processes_and_ends_them(capsys):
+    """--busy 2: two other processes keep a core busy each while the problems are planned,
+    and none is left running after the table, when it ends normally or by an error."""
+    import os
+    from pathlib import Path
+
+    def busy_children() -> list[str]:
+        found = []
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+                cmdline = (stat.parent / "cmdline").read_bytes()
+            except OSError:  # ended meanwhile
+                continue
+            if int(fields[1]) == os.getpid() and b"while True: pass" in cmdline:
+                found.append(stat.parent.name)
+        return found
+
+    seen: list[list[str]] = []
+    import robocell.apps.bench_planning as bench
+
+    run_set = bench.run_set
+
+    def spy(*args, **kwargs):  # type: ignore[no-untyped-def]
+        seen.append(busy_children())
+        return run_set(*args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(bench, "run_set", spy)
+        args = ["--robots", "panda", "--sets", "table_pick", "--limit", "1", "--busy", "2"]
+        assert main(["bench", "planning", *args]) == 0
+        assert "2 other process(es) keeping a core busy" in capsys.readouterr().out
+        assert len(seen) == 1 and len(seen[0]) == 2
+        assert busy_children() == []
+        mp.setattr(bench, "run_set", lambda *a, **k: seen.append(busy_children()) or 1 / 0)
+        with pytest.raises(ZeroDivisionError):
+            bench.run(["panda"], ["table_pick"], limit=1, busy=1)
+        assert len(seen[1]) == 1 and busy_children() == []
 
 
 def test_speed_up_interval_holds_the_ratio_and_follows_each_problem():

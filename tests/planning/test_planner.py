@@ -101,15 +101,20 @@ def test_seeded_planning_is_reproducible(walled):
 
 
 def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path(walled):
-    """After the process rested, the kernel's sleeping threads are slow to wake: a plan then
-    runs its searches one after the other and its final check in the calling thread, and
-    finds the same path as a plan made while the process is busy (searches side by side),
-    mended by the same detours."""
+    """After the process rested, the kernel's sleeping threads are slow to wake, and while
+    the host keeps one of them off its core they wait for each other (checker.THREADS): a
+    plan then runs its searches one after the other and its final check in the calling
+    thread, and finds the same path as a plan made while the process is busy and its threads
+    run together (searches side by side), mended by the same detours."""
     import time
 
     import robocell.planning.planner as planner_module
-    from robocell.scene.checker import REST_CHUNK, threads_rested
+    from robocell.scene.checker import REST_CHUNK, THREADS, threads_rested
     from tests.conftest import busy
+
+    def contended(seconds: float) -> None:  # busy, beside a host that kept the threads waiting
+        busy(seconds)
+        THREADS.note(wall=2e-3, cpu=1e-3)
 
     threads_rested()
     time.sleep(0.06)
@@ -136,7 +141,8 @@ def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path
         mp.setattr(planner_module, "rrt_connect_compiled", spy_search)
         mp.setattr(planner_module.PK, "validate_path", spy_validate)
         seen = []
-        for rest in (time.sleep, busy):
+        for rest in (time.sleep, contended, busy):
+            THREADS.note(wall=1e-3, cpu=1e-3)  # they ran together (whatever the host did before)
             threads_rested()
             rest(0.06)
             plan = p.plan(request)
@@ -144,12 +150,52 @@ def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path
             repairs.append(plan.stats.get("repairs", 0))
             seen.append(set(calls))  # (a repair validates once more)
             calls.clear()
+    assert seen[0] == seen[1] == {("side_by_side", False), ("chunk", REST_CHUNK)}
     # busy, the searches' threads check the path, and judge and mend it where they find
     # states not FREE (none UNSURE); the planner checks it only if they could not
-    assert seen[0] == {("side_by_side", False), ("chunk", REST_CHUNK)}
-    assert seen[1] - {("chunk", planner_module.FINAL_CHUNK)} == {("side_by_side", None)}
-    assert np.array_equal(paths[0], paths[1])
-    assert repairs == [1, 1]  # mended by the same detours, in Python and in the kernel call
+    assert seen[2] - {("chunk", planner_module.FINAL_CHUNK)} == {("side_by_side", None)}
+    assert np.array_equal(paths[0], paths[1]) and np.array_equal(paths[0], paths[2])
+    assert repairs == [1, 1, 1]  # mended by the same detours, in Python and in the kernel call
+
+
+def test_the_thread_gauge_keeps_calls_off_threads_the_host_kept_waiting():
+    """A call on the kernel's threads whose calling thread waited (its wall time less its CPU
+    time) longer than CONTENDED_WAIT and than CONTENDED_SHARE of the call keeps the next
+    calls in the calling thread for CONTENDED_FOR, doubling while the threads still wait, up
+    to CONTENDED_MAX; a call in which they ran together returns to them at once."""
+    import time
+
+    from robocell.scene.checker import (
+        CONTENDED_FOR,
+        CONTENDED_MAX,
+        CONTENDED_SHARE,
+        CONTENDED_WAIT,
+        ThreadGauge,
+    )
+
+    gauge = ThreadGauge()
+    assert not gauge.contended()
+    gauge.note(wall=1e-3, cpu=1e-3 - 0.9 * CONTENDED_WAIT)  # a short wait: a thread's wake
+    assert not gauge.contended()
+    long_call = 10 * CONTENDED_WAIT / CONTENDED_SHARE  # waiting CONTENDED_WAIT is no share
+    gauge.note(wall=long_call, cpu=long_call - 2 * CONTENDED_WAIT)
+    assert not gauge.contended()
+    before = time.perf_counter()
+    gauge.note(wall=2e-3, cpu=1e-3)
+    assert gauge.contended() and gauge.backoff == CONTENDED_FOR
+    assert before + CONTENDED_FOR <= gauge.until <= time.perf_counter() + CONTENDED_FOR
+    backoffs = []
+    for _ in range(12):
+        gauge.note(wall=2e-3, cpu=0.0)
+        backoffs.append(gauge.backoff)
+    assert backoffs[:3] == [2 * CONTENDED_FOR, 4 * CONTENDED_FOR, 8 * CONTENDED_FOR]
+    assert max(backoffs) == backoffs[-1] == CONTENDED_MAX
+    gauge.note(wall=2e-3, cpu=2e-3)
+    assert not gauge.contended() and gauge.backoff == 0.0
+    gauge.note(wall=2e-3, cpu=0.0)
+    assert gauge.backoff == CONTENDED_FOR  # from the start again
+    gauge.until = time.perf_counter() - 1e-3  # its time passed
+    assert not gauge.contended()
 
 
 def test_pose_goal_reaches_the_pose(walled):

@@ -232,9 +232,10 @@ def test_collides_answers_as_check_does_for_one_state(scene, irb120):
 
 
 def test_a_batch_after_a_rest_is_checked_in_the_calling_thread(scene, irb120, monkeypatch):
-    """After the process rested (the kernel's sleeping threads slow to wake), a batch of up
-    to REST_CHUNK states is classified in the calling thread; while the process is busy, on
-    the kernel's threads. The answers are the same."""
+    """After the process rested (the kernel's sleeping threads slow to wake), or while the
+    host keeps the threads waiting (checker.THREADS), a batch of up to REST_CHUNK states is
+    classified in the calling thread; while the process is busy and its threads run
+    together, on the kernel's threads. The answers are the same."""
     from robocell.scene import checker as checker_module
     from tests.conftest import busy
 
@@ -249,13 +250,20 @@ def test_a_batch_after_a_rest_is_checked_in_the_calling_thread(scene, irb120, mo
         "classify_in",
         lambda *args: threaded.append(len(args[0])) or parallel(*args),
     )
+
+    def contended(seconds: float) -> None:  # busy, beside a host that kept the threads waiting
+        busy(seconds)
+        checker_module.THREADS.note(wall=2e-3, cpu=1e-3)
+
     answers = []
-    for rest in (time.sleep, busy):
+    for rest in (time.sleep, contended, busy):
+        checker_module.THREADS.note(wall=1e-3, cpu=1e-3)  # they ran together
         checker_module.threads_rested()
         rest(0.06)
         answers.append(checker.check(qs))
-    assert threaded == [300]  # the second batch only
-    assert np.array_equal(answers[0], answers[1]) and answers[0].any() and not answers[0].all()
+    assert threaded == [300]  # the last batch only
+    assert all(np.array_equal(answers[0], a) for a in answers[1:])
+    assert answers[0].any() and not answers[0].all()
 
 
 def test_the_threads_chunks_answer_as_the_calling_thread_does(irb120):

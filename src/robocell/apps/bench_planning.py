@@ -30,12 +30,21 @@ plans each problem N times, run r with seed ``--seed`` + k + 1000·r, as MoveIt'
 each query several times: a set's median is then over N·50 plans, and the ratio between two
 planners less at the mercy of one seed (over seeds 0–5, one run each, OMPL's median on the
 Panda's table_under_pick ranged from 11.8 to 16.3 ms, session 25).
+
+``--busy N`` runs N other processes that each keep a core busy meanwhile: what a shared
+machine's load does to the planners. Beside one on this 2-core machine (session 50, Panda table
+sets), robocell's medians were 1.97 and 2.94 ms and the ratios 10.0× and 9.7× while its two
+searches still ran side by side; with the planner keeping to the calling thread while the host
+keeps its threads waiting (:class:`robocell.scene.checker.ThreadGauge`), 1.29 and 2.27 ms and
+14.0× and 16.1×.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import subprocess
+import sys
 import time
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
@@ -331,6 +340,7 @@ def run(
     seed: int = 0,
     continuous: bool = False,
     runs: int = 1,
+    busy: int = 0,
 ) -> int:
     base = Path(mbm) if mbm else default_mbm_dir()
     baselines = baselines or []
@@ -344,6 +354,32 @@ def run(
         raise PlanningError(f"--timeout must be > 0 s, got {timeout}")
     if runs < 1:
         raise PlanningError(f"--runs must be at least 1 plan per problem, got {runs}")
+    if busy < 0:
+        raise PlanningError(f"--busy must be 0 or more processes, got {busy}")
+    loops = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(busy)]
+    try:
+        return _run(
+            base, robots, sets, limit, timeout, baselines, json_path, seed, continuous, runs, busy
+        )
+    finally:
+        for loop in loops:
+            loop.kill()
+            loop.wait()
+
+
+def _run(
+    base: Path,
+    robots: list[str],
+    sets: list[str],
+    limit: int,
+    timeout: float,
+    baselines: list[str],
+    json_path: str | None,
+    seed: int,
+    continuous: bool,
+    runs: int,
+    busy: int,
+) -> int:
     planners = ["", *baselines]
     header = (
         f"{'robot':6} {'set':17} {'planner':11} {'probs':>5} {'valid':>5} {'solved':>6} "
@@ -362,6 +398,7 @@ def run(
             else ""
         )
         + (", paths proven free by the continuous check" if continuous else "")
+        + (f", {busy} other process(es) keeping a core busy" if busy else "")
     )
     print(header)
     print("-" * len(header))

@@ -65,6 +65,12 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="every planner's path proven free by the continuous check (PlannerConfig)",
     )
+    bp.add_argument(
+        "--busy",
+        type=int,
+        default=0,
+        help="other processes that each keep a core busy during the run (a shared machine)",
+    )
     args = parser.parse_args(argv)
     try:
         if args.command in ("info", "demo", "run"):
@@ -104,6 +110,7 @@ def main(argv: list[str] | None = None) -> int:
                 args.seed,
                 args.continuous,
                 args.runs,
+                args.busy,
             )
         parser.print_help()
         return 2

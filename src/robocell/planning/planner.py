@@ -44,6 +44,7 @@ from robocell.planning.rrt import (
 from robocell.robot.model import JointGroup
 from robocell.scene.checker import (
     REST_CHUNK,
+    THREADS,
     CollisionChecker,
     next_epoch,
     threads_rested,
@@ -98,7 +99,8 @@ class PlannerConfig:
     # the least work wins (rrt.rrt_connect_compiled)
     searches: int = 2
     # the kernel's threads for the searches and the final check: None: unless the process
-    # rested since the last plan (they are slow to wake then: see checker.REST_CHUNK)
+    # rested since the last plan (they are slow to wake then: see checker.REST_CHUNK) or
+    # the host kept them waiting lately (another process on a core: checker.THREADS)
     threads: bool | None = None
     # a share of the search's samples from around the start and goals (rrt_connect_compiled)
     box_share: float = 0.8
@@ -176,7 +178,11 @@ class Planner:
         native = is_native(planner_name)
         if cfg.compiled and native:
             warm_up(checker)
-        threads = cfg.threads if cfg.threads is not None else not threads_rested()
+        # the kernel's threads, unless they would be slow to wake (a rest) or the host keeps
+        # one of them off its core (THREADS): the searches then run in the calling thread
+        threads = cfg.threads
+        if threads is None:
+            threads = not (threads_rested() or THREADS.contended())
         chunk = FINAL_CHUNK if threads else REST_CHUNK
         # the start's and a joint goal's collision checks left to the compiled search's call
         # (check_ends), on its own code: checked here only if it finds one of them not FREE

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 # the compiled steps (numba loads a kernel from its cache on its first call, not here): a
 # plan imported them on its way, 10 µs of a plan on the caches a scene's loading leaves
 from robocell.planning import _kernels as PK
-from robocell.scene.checker import SEARCH_SLOTS, next_epoch
+from robocell.scene.checker import SEARCH_SLOTS, THREADS, next_epoch
 
 _MASK64 = (1 << 64) - 1
 # SplitMix64's constants, the compiled draws' (PK._next_seed), as Python ints
@@ -343,6 +343,7 @@ def rrt_connect_compiled(
     with _SEARCH_LOCK:
         if side_by_side is None:
             side_by_side = searches > 1 and _threadsafe_layer()
+        t0, cpu0 = time.perf_counter(), time.thread_time()
         state, detour_seed, path, status, st, shortcut_states, free, known, judged, dev = (
             PK.plan_in(
                 start, goals, lower, upper, _as_int64(stream.state), searches, deadline,
@@ -353,6 +354,8 @@ def rrt_connect_compiled(
                 int(finish.final_chunk), _omp(), radii,
             )
         )  # fmt: skip
+        if side_by_side:
+            THREADS.note(time.perf_counter() - t0, time.thread_time() - cpu0)
     stream.state = int(state) & _MASK64
     edges.stats.detour_seed = int(detour_seed) if len(radii) else None
     edges.stats.blocked_ends = status == PK.BLOCKED

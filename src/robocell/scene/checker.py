@@ -928,6 +928,49 @@ def threads_rested() -> bool:
 _LAST_ASKED = [0.0, 0.0]  # time.perf_counter and time.process_time at threads_rested's last call
 
 
+# The kernel's two threads need both of this machine's cores. Beside another process that keeps
+# a core busy, the operating system shares them among three threads, and a call on the kernel's
+# threads waits for whichever is off its core: its searches for each other, the parallel
+# region's end for the last thread. Session 50, Panda table sets after `ompl` plans, medians:
+# beside a busy loop, searches side by side 1.95 and 3.31 ms, one after the other in the calling
+# thread 1.11 and 2.28 (the same paths); without it 0.66 and 1.22 against 0.96 and 2.06. The
+# calling thread spins while it waits for the other thread, so a call's wall time less its CPU
+# time says whether the host kept it waiting: 0 µs in 40 of 40 plans without the busy loop,
+# 660 µs at the 10th percentile beside it (half the call).
+CONTENDED_WAIT = 150e-6  # [s] a threaded call whose calling thread waited longer than this,
+CONTENDED_SHARE = 0.25  # and than this share of the call, was kept waiting by the host
+CONTENDED_FOR = 0.02  # [s] then calls run in the calling thread this long, then try the
+CONTENDED_MAX = 1.0  # threads again; doubling each time they still wait, up to this [s]
+
+
+@dataclass
+class ThreadGauge:
+    """Whether the host lets the kernel's threads run together: from the calls made on them
+    (:meth:`note`), :meth:`contended` says whether to keep the next call in the calling thread
+    (see CONTENDED_WAIT). Which it does changes how fast a plan is found, never which path:
+    the searches run one after the other to the same result."""
+
+    until: float = 0.0  # time.perf_counter until which calls keep to the calling thread
+    backoff: float = 0.0  # [s] how long that was, 0 once the threads ran together again
+
+    def note(self, wall: float, cpu: float) -> None:
+        """A call on the kernel's threads took ``wall`` [s], the calling thread's CPU time
+        in it ``cpu`` [s] (time.thread_time)."""
+        if wall - cpu > max(CONTENDED_WAIT, CONTENDED_SHARE * wall):
+            self.backoff = min(2 * self.backoff, CONTENDED_MAX) if self.backoff else CONTENDED_FOR
+            self.until = time.perf_counter() + self.backoff
+        else:
+            self.until, self.backoff = 0.0, 0.0
+
+    def contended(self) -> bool:
+        """Whether the host kept the threads waiting lately: the next call keeps to the
+        calling thread."""
+        return time.perf_counter() < self.until
+
+
+THREADS = ThreadGauge()  # the process's: its kernel threads are shared by every checker
+
+
 def next_epoch(n: int) -> int:
     """The first of n stamps no kernel call has used: the scratch below is shared by every
     checker of the process, so stamps must be unique across them (kernels hold the GIL, so two
@@ -1530,7 +1573,7 @@ class CollisionChecker:
         """classify on an already validated (N, dof) C-contiguous array."""
         epoch = next_epoch(q.shape[0])
         n = q.shape[0]
-        if n <= CHUNK or (n <= REST_CHUNK and threads_rested()):
+        if n <= CHUNK or (n <= REST_CHUNK and (threads_rested() or THREADS.contended())):
             return K.classify_serial_in(q, self._inputs, epoch, pair_flags, False, 0)  # type: ignore[no-any-return]
         return K.classify_in(q, self._inputs, epoch, pair_flags, CHUNK)  # type: ignore[no-any-return]
 
