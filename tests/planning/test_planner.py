@@ -150,9 +150,11 @@ def test_a_plan_after_a_rest_keeps_to_the_calling_thread_and_finds_the_same_path
             repairs.append(plan.stats.get("repairs", 0))
             seen.append(set(calls))  # (a repair validates once more)
             calls.clear()
-    assert seen[0] == seen[1] == {("side_by_side", False), ("chunk", REST_CHUNK)}
-    # busy, the searches' threads check the path, and judge and mend it where they find
-    # states not FREE (none UNSURE); the planner checks it only if they could not
+    # the searches' call checks the path (side by side, on their threads), and judges and
+    # mends it where it finds states not FREE (none UNSURE); the planner checks it only if
+    # it could not (then in the calling thread after a rest: REST_CHUNK)
+    assert seen[0] - {("chunk", REST_CHUNK)} == {("side_by_side", False)}
+    assert seen[1] - {("chunk", REST_CHUNK)} == {("side_by_side", False)}
     assert seen[2] - {("chunk", planner_module.FINAL_CHUNK)} == {("side_by_side", None)}
     assert np.array_equal(paths[0], paths[1]) and np.array_equal(paths[0], paths[2])
     assert repairs == [1, 1, 1]  # mended by the same detours, in Python and in the kernel call

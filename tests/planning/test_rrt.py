@@ -467,9 +467,10 @@ def test_the_searches_threads_check_the_winners_path_as_the_final_check_does(wal
     """Side by side, the searches' threads check the winner's shortcut path as the final check
     classifies it first: ``final_free`` exactly when the final check finds every state FREE
     (past a wall the search's coarse steps skip over, and past a mesh that leaves states
-    unsure), the path the same as without that check; one after the other, nothing is
-    checked. On one thread (numba's loop runs the searches one after the other, each as if
-    side by side), the search that ends last checks alone: the same answers."""
+    unsure), the path the same as without that check; one after the other, the calling
+    thread checks it so, with the same answers. On one thread (numba's loop runs the
+    searches one after the other, each as if side by side), the search that ends last
+    checks alone: the same answers."""
     import numba
 
     from robocell.planning import _kernels as PK
@@ -502,14 +503,12 @@ def test_the_searches_threads_check_the_winners_path_as_the_final_check_does(wal
                         paths[1], 0.01, 0.05, True, checker.compiled_inputs,
                         next_epoch(1 << 40), 32, NOTHING_CHECKED,
                     )  # fmt: skip
-                    if side_by_side:
-                        assert edges.stats.final_free == (summary == 0)
-                        seen.setdefault(n_threads, set()).add(edges.stats.final_free)
-                    else:
-                        assert not edges.stats.final_free
+                    assert edges.stats.final_free == (summary == 0)
+                    seen.setdefault((n_threads, side_by_side), set()).add(edges.stats.final_free)
         finally:
             numba.set_num_threads(threads)
-    assert seen[threads] == {False, True} and True in seen[1]
+    assert seen[threads, True] == seen[threads, False] == {False, True}
+    assert True in seen[1, True]
 
 
 def _race(checker, seed, resolution, min_gain, helpers=True):
