@@ -227,6 +227,52 @@ def test_jacobian_matches_finite_differences(irb120, mount):
         arm.get_jacobian_matrix(q, [0, 1])
 
 
+def test_pose_reference_frame_gives_targets_and_waypoints_in_a_link(irb120):
+    """MoveIt's set_pose_reference_frame: with the robot turned and moved off the world's
+    origin, a pose target, a position target and Cartesian waypoints given in its base link
+    are reached where that frame puts them in the world; in the world frame (the default)
+    the same numbers mean another place. Returned poses stay in the world frame."""
+    mount = Pose.from_rpy(0.4, -0.3, 0.1, 0.0, 0.0, 2.0)
+    arm = MoveGroup(PlanningScene(irb120, robot_pose=mount), "arm", time_scale=0)
+    arm.set_end_effector_link("tcp")
+    assert arm.get_pose_reference_frame() == "world"
+    base = arm.group.base_link
+    arm.set_pose_reference_frame(base)
+    assert arm.get_pose_reference_frame() == base
+    T_world_base = arm.scene.link_pose(base)
+    assert T_world_base.isclose(mount, atol=1e-9, rot_atol=1e-9)
+
+    in_base = Pose.from_rpy(0.35, 0.1, 0.3, 0, math.pi / 2, 0)
+    assert arm.go(in_base)
+    reached = arm.get_current_pose()
+    want = T_world_base * in_base
+    assert np.allclose(reached.position, want.position, atol=1e-5)
+    assert np.allclose(reached.rotation(), want.rotation(), atol=1e-5)
+    assert not np.allclose(reached.position, in_base.position, atol=0.05)
+
+    arm.set_position_target([0.3, -0.15, 0.35])
+    assert arm.go()
+    want = (T_world_base * Pose([0.3, -0.15, 0.35])).position
+    assert np.allclose(arm.get_current_pose().position, want, atol=1e-4)
+
+    start = arm.get_current_pose()
+    up = Pose(start.position, start.orientation)
+    up_in_base = T_world_base.inverse() * up
+    waypoints = [Pose(up_in_base.position + [0, 0, 0.05], up_in_base.orientation)]
+    plan = arm.compute_cartesian_path(waypoints, 0.005)
+    assert plan.fraction == 1.0
+    end = fk(arm.group, plan.trajectory.positions[-1], "tcp")
+    assert np.allclose(mount.matrix() @ end, (T_world_base * waypoints[0]).matrix(), atol=1e-4)
+
+    with pytest.raises(PlanningError, match=r"unknown pose reference frame 'bse'.*world"):
+        arm.set_pose_reference_frame("bse")
+    assert arm.get_pose_reference_frame() == base
+    arm.set_pose_reference_frame("world")
+    arm.set_pose_target(in_base)
+    assert arm.go()
+    assert np.allclose(arm.get_current_pose().position, in_base.position, atol=1e-5)
+
+
 def test_retime_trajectory_keeps_the_motion_and_meets_the_new_limits(arm):
     """A plan's path timed again time-optimally (as the planner times it at those factors);
     a Cartesian trajectory run uniformly slower: the same states at scaled times, a limit
@@ -348,6 +394,10 @@ GROUP_CALLS = {
     "compute_sequence (blend_radius)": (
         lambda g, v: g.compute_sequence([g.get_current_pose()], v),
         NUMBERS,
+    ),
+    "set_pose_reference_frame": (
+        lambda g, v: g.set_pose_reference_frame(v),
+        [None, *NAMES, "World"],
     ),
     "move_relative (rpy)": (lambda g, v: g.move_relative((0, 0, 0.01), v), VECTORS),
     "move_relative (frame)": (lambda g, v: g.move_relative((0, 0, 0.01), (0, 0, 0), v), NAMES),

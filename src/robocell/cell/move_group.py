@@ -25,6 +25,7 @@ from robocell.errors import (
     choices,
     name_or,
     number,
+    unknown,
     vector,
     whole,
 )
@@ -35,6 +36,7 @@ from robocell.planning.cartesian import (
     compute_cartesian_path,
     compute_linear_sequence,
     relative_pose,
+    waypoint_poses,
 )
 from robocell.planning.planner import Planner, PlannerConfig, planner_name, planning_attempts
 from robocell.planning.request import (
@@ -98,6 +100,7 @@ class MoveGroup:
         self.orientation_tolerance = 1e-3
         self.planner_id = ""
         self.end_effector_link = self.group.tip_link
+        self._pose_frame = WORLD_FRAME
         self._handle: ExecutionHandle | None = None
         self.seed: int | None = 0
         self._remembered: dict[str, NDArray[np.float64]] = {}
@@ -137,8 +140,31 @@ class MoveGroup:
         return WORLD_FRAME
 
     def get_pose_reference_frame(self) -> str:
-        """The frame of pose targets: the scene's world frame (as :meth:`get_planning_frame`)."""
-        return WORLD_FRAME
+        """The frame pose and position targets and Cartesian waypoints are given in: the
+        scene's world frame unless :meth:`set_pose_reference_frame` named another."""
+        return self._pose_frame
+
+    def set_pose_reference_frame(self, frame: str) -> None:
+        """Give pose and position targets and Cartesian waypoints in ``frame``: the world
+        frame or a link of the robot (its base link, say, for a robot mounted off the
+        world's origin, as in a cell of two robots), as MoveIt's call. A link that moves is
+        taken where it is when the target or the waypoints are given. Poses the group
+        returns (:meth:`get_current_pose`) stay in the world frame, MoveIt's planning frame."""
+        links = self.scene.robot.link_names
+        if not isinstance(frame, str) or (frame != WORLD_FRAME and frame not in links):
+            raise PlanningError(unknown("pose reference frame", frame, [WORLD_FRAME, *links]))
+        self._pose_frame = frame
+
+    def _in_world(self, pose: Pose) -> Pose:
+        """``pose``, given in the pose reference frame, in the world frame (the frame where
+        it is now)."""
+        if self._pose_frame == WORLD_FRAME:
+            return pose
+        if self.sync_state is not None:
+            self.sync_state()
+        with self._lock:
+            T_world_frame = self.scene.link_pose(self._pose_frame)
+        return T_world_frame * pose
 
     def get_named_targets(self) -> list[str]:
         """The SRDF's group states and the joint values remembered by name
@@ -284,14 +310,16 @@ class MoveGroup:
     ) -> None:
         """A joint goal: a vector in the group's order, {joint name: value} or a joint's name
         and its value (the other joints keep their current values), or a Pose of the
-        end-effector link (or of the link named by ``value``), world frame, whose
+        end-effector link (or of the link named by ``value``) in the pose reference frame, whose
         collision-free IK solution nearest the current joint values becomes the goal (one
         within the goal tolerances where none meets the pose exactly), as moveit_commander's
         forms of this call."""
         if isinstance(q, Pose):
             link = self._link(value)  # type: ignore[arg-type]
             self.scene.robot.link_index(link, "pose target link")
-            goal = PoseGoal(link, q, self.position_tolerance, self.orientation_tolerance)
+            goal = PoseGoal(
+                link, self._in_world(q), self.position_tolerance, self.orientation_tolerance
+            )
             current = self.get_current_joint_values()
             with self._lock:
                 checker = self.scene.checker(self.group)
@@ -333,18 +361,20 @@ class MoveGroup:
         return self._goal.positions.copy()
 
     def set_pose_target(self, pose: Pose | ArrayLike, link: str | None = None) -> None:
-        """A pose goal for ``link`` (default: the end-effector link), world frame."""
+        """A pose goal for ``link`` (default: the end-effector link), in the pose reference
+        frame (the world's unless :meth:`set_pose_reference_frame` named another)."""
         p = pose if isinstance(pose, Pose) else Pose.from_any(pose)
         link = self._link(link)
         self.scene.robot.link_index(link, "pose target link")
-        self._goal = PoseGoal(link, p)
+        self._goal = PoseGoal(link, self._in_world(p))
 
     def set_position_target(self, xyz: ArrayLike, link: str | None = None) -> None:
-        """A position-only goal for ``link`` (any orientation), world frame [m]."""
+        """A position-only goal for ``link`` (any orientation) [m], in the pose reference
+        frame."""
         p = vector(xyz, 3, "a position target", PlanningError)
         link = self._link(link)
         self.scene.robot.link_index(link, "position target link")
-        self._goal = PositionGoal(link, p)
+        self._goal = PositionGoal(link, self._in_world(Pose(p)).position)
 
     def shift_pose_target(self, axis: int, value: float, link: str | None = None) -> None:
         """A pose target: the current pose of ``link`` (default: the end-effector link) with
@@ -506,11 +536,11 @@ class MoveGroup:
         avoid_collisions: bool = True,
         rotation_step: float = 0.05,
     ) -> CartesianPlan:
-        """Straight lines of the end-effector link through ``waypoints`` (world frame), from
-        the start state; unpacks as ``trajectory, fraction``. With the planner's
+        """Straight lines of the end-effector link through ``waypoints`` (in the pose reference
+        frame), from the start state; unpacks as ``trajectory, fraction``. With the planner's
         ``continuous`` setting, the motion as it will run is proven free (it stops before
         the first step where it is not: see :func:`compute_cartesian_path`)."""
-        waypoints = _waypoints(waypoints)
+        waypoints = self._waypoints_in_world(waypoints)
         if self.sync_state is not None:
             self.sync_state()
         start = self._start if self._start is not None else self.get_current_joint_values()
@@ -538,6 +568,13 @@ class MoveGroup:
         )
         return CartesianPlan(traj, cp.fraction, cp.reason)
 
+    def _waypoints_in_world(self, waypoints: Iterable[Pose]) -> list[Pose]:
+        """``waypoints`` (a list of poses in the pose reference frame) in the world frame."""
+        waypoints = _waypoints(waypoints)
+        if self._pose_frame == WORLD_FRAME:
+            return waypoints  # read as poses by the Cartesian planner
+        return [self._in_world(w) for w in waypoint_poses(waypoints)]
+
     def _continuous(self) -> float | None:
         """The continuous check's tolerance for Cartesian motions, when the planner's
         settings ask for it (``PlannerConfig.continuous``), else None."""
@@ -547,10 +584,11 @@ class MoveGroup:
     def compute_sequence(
         self, waypoints: list[Pose], blend_radius: float = 0.0, eef_step: float = 0.005
     ) -> CartesianPlan:
-        """Straight moves of the end-effector link through ``waypoints`` (world frame), each
+        """Straight moves of the end-effector link through ``waypoints`` (in the pose reference
+        frame), each
         corner rounded from ``blend_radius`` [m] before it (Pilz's LIN sequence with blend
         radii, ABB's zones); 0 stops at every corner. Timed time-optimally."""
-        waypoints = _waypoints(waypoints)
+        waypoints = self._waypoints_in_world(waypoints)
         if self.sync_state is not None:
             self.sync_state()
         start = self._start if self._start is not None else self.get_current_joint_values()

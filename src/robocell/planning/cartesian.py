@@ -67,6 +67,20 @@ def _poses_between(
     return out
 
 
+def waypoint_poses(waypoints: list[Pose]) -> list[Pose]:
+    """Each waypoint read as a pose (:meth:`Pose.from_any`: a user's list may hold any of
+    its forms), else a PlanningError naming the first that is not one."""
+    poses = []
+    for k, w in enumerate(waypoints):
+        if not isinstance(w, Pose):
+            try:
+                w = Pose.from_any(w)
+            except Exception as exc:
+                raise PlanningError(f"waypoint {k} is not a pose: {w!r}") from exc
+        poses.append(w)
+    return poses
+
+
 def compute_cartesian_path(
     scene: PlanningScene,
     group: str | JointGroup,
@@ -105,14 +119,7 @@ def compute_cartesian_path(
             raise PlanningError(f"{name} must be > 0, got {v!r}")
     if number(jump_threshold, "jump_threshold", PlanningError) < 0:
         raise PlanningError(f"jump_threshold must be >= 0, got {jump_threshold!r}")
-    targets = []
-    for k, w in enumerate(waypoints):
-        if not isinstance(w, Pose):
-            try:
-                w = Pose.from_any(w)
-            except Exception as exc:
-                raise PlanningError(f"waypoint {k} is not a pose: {w!r}") from exc
-        targets.append(w.matrix())
+    targets = [w.matrix() for w in waypoint_poses(waypoints)]
     q0 = (
         scene.state.group_positions(g).copy()
         if start is None
@@ -396,7 +403,7 @@ def compute_linear_sequence(
     full = scene.state.positions.copy()
     full[g.indices] = q
     T0 = scene.T_world_root @ _link_in_root(scene, tip, full)
-    poses = [T0] + [(w if isinstance(w, Pose) else Pose.from_any(w)).matrix() for w in waypoints]
+    poses = [T0] + [w.matrix() for w in waypoint_poses(waypoints)]
     P = np.array([T[:3, 3] for T in poses])
     # where the motion must stop: every corner without blending, and reversals
     stops = [0]
