@@ -35,8 +35,8 @@ Panda's table_under_pick ranged from 11.8 to 16.3 ms, session 25).
 machine's load does to the planners. Beside one on this 2-core machine (session 50, Panda table
 sets), robocell's medians were 1.97 and 2.94 ms and the ratios 10.0× and 9.7× while its two
 searches still ran side by side; with the planner keeping to the calling thread while the host
-keeps its threads waiting (:class:`robocell.scene.checker.ThreadGauge`), 1.29 and 2.27 ms and
-14.0× and 16.1×.
+keeps its threads waiting (:class:`robocell.scene.checker.ThreadGauge`), 1.12 and 1.80 ms and
+14.8× and 15.4×, every set of both robots 14.8× or more.
 """
 
 from __future__ import annotations
