@@ -585,9 +585,8 @@ class MoveGroup:
         self, waypoints: list[Pose], blend_radius: float = 0.0, eef_step: float = 0.005
     ) -> CartesianPlan:
         """Straight moves of the end-effector link through ``waypoints`` (in the pose reference
-        frame), each
-        corner rounded from ``blend_radius`` [m] before it (Pilz's LIN sequence with blend
-        radii, ABB's zones); 0 stops at every corner. Timed time-optimally."""
+        frame), each corner rounded from ``blend_radius`` [m] before it (Pilz's LIN sequence
+        with blend radii, ABB's zones); 0 stops at every corner. Timed time-optimally."""
         waypoints = self._waypoints_in_world(waypoints)
         if self.sync_state is not None:
             self.sync_state()
