@@ -570,10 +570,7 @@ class MoveGroup:
 
     def _waypoints_in_world(self, waypoints: Iterable[Pose]) -> list[Pose]:
         """``waypoints`` (a list of poses in the pose reference frame) in the world frame."""
-        waypoints = _waypoints(waypoints)
-        if self._pose_frame == WORLD_FRAME:
-            return waypoints  # read as poses by the Cartesian planner
-        return [self._in_world(w) for w in waypoint_poses(waypoints)]
+        return [self._in_world(w) for w in waypoint_poses(_waypoints(waypoints))]
 
     def _continuous(self) -> float | None:
         """The continuous check's tolerance for Cartesian motions, when the planner's
